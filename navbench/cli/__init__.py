@@ -1,0 +1,1 @@
+"""The thin CLI: one module per command under ``navbench.cli.commands``."""

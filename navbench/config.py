@@ -1,0 +1,38 @@
+"""Config hashing: the content hash of a frozen dataclass is its cache key.
+
+``config_hash`` is sha256 over the sorted, compact JSON of a value made only of dataclasses,
+dicts, lists/tuples, str, int, float, bool and None. Floats are written with ``repr`` so that a
+change in the last bit changes the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from typing import Any
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Convert dataclasses, tuples and numpy scalars to plain JSON values (recursively)."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if hasattr(obj, "item") and callable(obj.item) and getattr(obj, "shape", None) == ():
+        return obj.item()  # numpy scalar
+    if obj is None or isinstance(obj, (str, int, float, bool)):
+        return obj
+    raise TypeError(f"cannot hash value of type {type(obj).__name__}")
+
+
+def canonical_json(obj: Any) -> str:
+    """Sorted, compact JSON of ``obj`` (the text that is hashed)."""
+    return json.dumps(to_jsonable(obj), sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def config_hash(obj: Any) -> str:
+    """Full sha256 hex digest of ``canonical_json(obj)``."""
+    return hashlib.sha256(canonical_json(obj).encode()).hexdigest()
