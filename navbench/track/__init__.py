@@ -1,0 +1,1 @@
+"""Pose estimators behind one interface (:class:`navbench.track.base.Estimator`)."""

@@ -1,0 +1,61 @@
+"""The pose-estimator interface every tracker implements.
+
+An estimator is stateful over one episode: ``reset`` with the known start pose and the first
+observation, then ``update`` once per executed control with the new observation. Poses are planar
+``(x, y, theta)`` world-frame arrays of shape ``(3,)`` (see :mod:`navbench.geometry`).
+``true_pose`` is passed to every ``update`` but only the ``gt`` estimator may read it.
+After each ``update``, ``last_timing`` holds that step's component times in milliseconds
+(for example ``{"render": 3.1, "estimate": 9.4}``).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from navbench.geometry import Frame
+
+
+@runtime_checkable
+class Estimator(Protocol):
+    name: str
+    last_timing: dict[str, float]
+
+    def reset(self, pose0: np.ndarray, frame0: Frame) -> None:
+        """Start an episode at the known pose ``pose0`` with its observation ``frame0``."""
+
+    def update(self, control: Any, frame: Frame, true_pose: np.ndarray | None = None) -> np.ndarray:
+        """Return the new planar pose estimate ``(3,)`` after ``control`` was executed."""
+
+
+_REGISTRY: dict[str, Any] = {}
+
+
+def register_estimator(name: str):
+    """Class decorator: make an estimator constructible by name through :func:`make_estimator`."""
+
+    def deco(cls):
+        _REGISTRY[name] = cls
+        cls.name = name
+        return cls
+
+    return deco
+
+
+def make_estimator(name: str, **kwargs) -> Estimator:
+    """Build a registered estimator; ``kwargs`` are its constructor arguments (map, intrinsics...)."""
+    from navbench.errors import TrackingError
+    import navbench.track.registry  # noqa: F401  (imports every estimator module)
+
+    try:
+        cls = _REGISTRY[name]
+    except KeyError:
+        raise TrackingError(f"unknown estimator {name!r}; choose one of {sorted(_REGISTRY)}") from None
+    return cls(**kwargs)
+
+
+def estimator_names() -> list[str]:
+    import navbench.track.registry  # noqa: F401
+
+    return sorted(_REGISTRY)
