@@ -1,0 +1,71 @@
+"""``navbench cache ls`` and ``navbench cache gc``: inspect and prune the stage cache."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console
+
+cache_app = typer.Typer(help="Inspect and prune the stage cache (results/cache).", no_args_is_help=True)
+
+
+def _human(n: int) -> str:
+    for unit in ("B", "KB", "MB", "GB"):
+        if n < 1024 or unit == "GB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return str(n)
+
+
+@cache_app.command("ls")
+def ls(
+    stage: str = typer.Option(None, "--stage", help="Only this stage."),
+    root: str = typer.Option("results/cache", "--root", help="Cache directory."),
+):
+    """List cached artifacts: stage, key, size, creation time and input keys."""
+    from rich.table import Table
+
+    from navbench.pipeline.cache import ArtifactStore
+
+    store = ArtifactStore(root)
+    infos = store.ls(stage)
+    table = Table(title=f"{len(infos)} artifacts in {root}")
+    for col in ("stage", "key", "size", "created", "inputs"):
+        table.add_column(col, justify="right" if col == "size" else "left")
+    episodes = [i for i in infos if i.stage == "episode"]
+    for i in infos:
+        if i.stage == "episode" and stage is None:
+            continue
+        inputs = ", ".join(f"{k}={v[:8]}" for k, v in sorted(i.inputs.items()))
+        table.add_row(i.stage, i.key[:12], _human(i.size), i.created, inputs)
+    if episodes and stage is None:
+        table.add_row("episode", f"({len(episodes)} items)", _human(sum(e.size for e in episodes)),
+                      episodes[-1].created, "use --stage episode")
+    console.print(table)
+
+
+@cache_app.command("gc")
+def gc(
+    keep_newest: int = typer.Option(1, "--keep-newest", min=0,
+                                    help="Also keep the N newest artifacts of every stage."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="List what would be removed."),
+    root: str = typer.Option("results/cache", "--root", help="Cache directory."),
+):
+    """Remove artifacts no run refers to, and stale temporary directories.
+
+    Kept: the artifacts of the latest run of every profile/command (results/cache/refs/), the
+    newest N per stage, everything they depend on, and episode trajectories whose level, map and
+    task set are kept.
+    """
+    from navbench.pipeline.cache import ArtifactStore
+
+    store = ArtifactStore(root)
+    removed = store.gc(keep_newest=keep_newest, dry_run=dry_run)
+    verb = "would remove" if dry_run else "removed"
+    for p in removed:
+        console.print(f"{verb} {p}")
+    console.print(f"{verb} {len(removed)} entries")
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(cache_app, name="cache")

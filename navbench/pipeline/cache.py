@@ -1,0 +1,380 @@
+"""The content-addressed stage cache (the DVC idea: key first, then maybe compute).
+
+An artifact is a directory ``<root>/<stage>/<key>/`` holding the stage's files and a
+``manifest.json``::
+
+    {"stage": ..., "key": ..., "config": {...}, "inputs": {"views": "<key>", ...},
+     "format_version": 1, "created": "2026-01-01T00:00:00+00:00", "navbench_version": "0.1.0",
+     "files": {"map.npz": {"sha256": "...", "size": 123}, ...}}
+
+The key is :func:`stage_key`: sha256 of the sorted JSON of (stage name, resolved config, the keys
+of its inputs, the artifact format version). It is computed *before* the stage runs, so a second
+run with the same key does not run the stage at all. A file name alone is never trusted: every
+load verifies the manifest and the size and sha256 of each file; an artifact that fails (truncated,
+tampered, manifest missing) is moved aside with a warning and recomputed, never used.
+
+Writes are atomic: the stage writes into a temporary directory ``<root>/<stage>/.tmp-<key>-...``
+next to the final one, the manifest is written last, and the directory is renamed into place.
+A crash leaves only a temporary directory behind, which :meth:`ArtifactStore.gc` removes.
+
+Garbage collection (:meth:`ArtifactStore.gc`) keeps
+
+* every artifact named in a *ref* file ``<root>/refs/<name>.json`` (each pipeline command writes
+  the keys of its latest run there, one file per profile/command, see :meth:`ArtifactStore.set_ref`),
+* the ``keep_newest`` newest artifacts of every stage (default 1),
+* everything those depend on (their manifests' inputs, transitively),
+* and every artifact whose inputs are *all* kept and whose stage is per-item
+  (``episode`` trajectories hang off their level, map and task set),
+
+and removes all other artifacts and every stale temporary or quarantined directory.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import os
+import shutil
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from navbench import __version__
+from navbench.config import config_hash, to_jsonable
+from navbench.errors import ArtifactError
+
+MANIFEST = "manifest.json"
+REFS_DIR = "refs"
+TMP_PREFIX = ".tmp-"
+BAD_PREFIX = ".bad-"
+#: Stages whose artifacts are per-item children of others (kept while all their inputs are kept).
+PER_ITEM_STAGES = frozenset({"episode"})
+
+Log = Callable[[str], None]
+
+
+def _noop(_msg: str) -> None:
+    pass
+
+
+def stage_key(stage: str, config: Any, inputs: dict[str, str], version: int) -> str:
+    """sha256 hex of the sorted JSON of (stage, resolved config, input keys, format version)."""
+    return config_hash({"stage": stage, "config": to_jsonable(config),
+                        "inputs": dict(sorted(inputs.items())), "format_version": int(version)})
+
+
+def file_sha256(path: Path, chunk: int = 1 << 20) -> str:
+    """sha256 hex digest of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while True:
+            b = f.read(chunk)
+            if not b:
+                break
+            h.update(b)
+    return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class ArtifactInfo:
+    """One stored artifact, as listed by :meth:`ArtifactStore.ls`.
+
+    ``size`` in bytes (sum of its files), ``created`` an ISO-8601 UTC timestamp.
+    """
+
+    stage: str
+    key: str
+    path: Path
+    size: int
+    created: str
+    inputs: dict[str, str]
+    config: dict
+
+
+class ArtifactStore:
+    """A directory of verified, content-addressed stage artifacts (see the module docstring)."""
+
+    def __init__(self, root: str | Path = "results/cache"):
+        self.root = Path(root)
+
+    # ------------------------------------------------------------------ paths and lookup
+    def path(self, stage: str, key: str) -> Path:
+        """Where the artifact ``key`` of ``stage`` lives (it may not exist)."""
+        if not stage or "/" in stage or stage.startswith("."):
+            raise ArtifactError(f"invalid stage name {stage!r}")
+        return self.root / stage / key
+
+    def verify(self, stage: str, key: str) -> dict:
+        """Check the artifact's manifest and every file's size and sha256; return the manifest.
+
+        Raises :class:`ArtifactError` naming the first problem.
+        """
+        d = self.path(stage, key)
+        mf = d / MANIFEST
+        if not mf.is_file():
+            raise ArtifactError(f"{d}: no manifest")
+        try:
+            man = json.loads(mf.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise ArtifactError(f"{mf}: unreadable manifest ({e})") from None
+        if not isinstance(man, dict) or man.get("key") != key or man.get("stage") != stage:
+            raise ArtifactError(f"{mf}: manifest does not describe {stage}/{key[:12]}")
+        files = man.get("files")
+        if not isinstance(files, dict):
+            raise ArtifactError(f"{mf}: manifest has no file list")
+        for rel, meta in files.items():
+            p = d / rel
+            if not p.is_file():
+                raise ArtifactError(f"{d}: file {rel} is missing")
+            if p.stat().st_size != meta.get("size"):
+                raise ArtifactError(f"{d}: file {rel} has size {p.stat().st_size}, "
+                                    f"expected {meta.get('size')} (truncated?)")
+            if file_sha256(p) != meta.get("sha256"):
+                raise ArtifactError(f"{d}: file {rel} fails its checksum (modified?)")
+        return man
+
+    def lookup(self, stage: str, key: str, log: Log = _noop) -> Path | None:
+        """The verified artifact's directory, or ``None`` when absent.
+
+        A present but invalid artifact is quarantined (moved aside, then deleted) with a warning
+        through ``log`` and reported as absent, so the caller recomputes it.
+        """
+        d = self.path(stage, key)
+        if not d.exists():
+            return None
+        try:
+            self.verify(stage, key)
+        except ArtifactError as e:
+            log(f"warning: {e}; discarding it and recomputing")
+            self._discard(d)
+            return None
+        return d
+
+    def load(self, stage: str, key: str) -> Path:
+        """The verified artifact's directory; :class:`ArtifactError` if absent or invalid."""
+        d = self.path(stage, key)
+        if not d.exists():
+            raise ArtifactError(f"no {stage} artifact with key {key[:12]} in {self.root}")
+        self.verify(stage, key)
+        return d
+
+    def find(self, key_prefix: str, stage: str | None = None) -> tuple[str, str]:
+        """Resolve a (possibly abbreviated, >= 6 hex digits) key to ``(stage, full key)``."""
+        if len(key_prefix) < 6:
+            raise ArtifactError(f"key {key_prefix!r} is too short (give at least 6 hex digits)")
+        hits = [(a.stage, a.key) for a in self._iter_dirs()
+                if a.key.startswith(key_prefix) and (stage is None or a.stage == stage)]
+        if not hits:
+            where = f"{stage} " if stage else ""
+            raise ArtifactError(f"no {where}artifact with key {key_prefix!r} in {self.root}")
+        if len(hits) > 1:
+            raise ArtifactError(f"key {key_prefix!r} is ambiguous ({len(hits)} artifacts)")
+        return hits[0]
+
+    # ------------------------------------------------------------------ writing
+    def write(self, stage: str, key: str, compute: Callable[[Path], None], *, config: Any,
+              inputs: dict[str, str], version: int, log: Log = _noop) -> Path:
+        """Run ``compute(tmpdir)`` and atomically install its files as artifact ``key``.
+
+        ``compute`` writes plain files (subdirectories allowed) into ``tmpdir``; the manifest is
+        added here. An existing artifact with this key is replaced.
+        """
+        final = self.path(stage, key)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        tmp = final.parent / f"{TMP_PREFIX}{key[:16]}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        tmp.mkdir()
+        try:
+            compute(tmp)
+            files = {}
+            for p in sorted(tmp.rglob("*")):
+                if p.is_file() and p.name != MANIFEST:
+                    files[p.relative_to(tmp).as_posix()] = {"sha256": file_sha256(p),
+                                                            "size": p.stat().st_size}
+            man = {
+                "stage": stage, "key": key, "config": to_jsonable(config),
+                "inputs": dict(sorted(inputs.items())), "format_version": int(version),
+                "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                "navbench_version": __version__, "files": files,
+            }
+            with open(tmp / MANIFEST, "w") as f:
+                json.dump(man, f, indent=1, sort_keys=True)
+                f.flush()
+                os.fsync(f.fileno())
+            if final.exists():
+                self._discard(final)
+            try:
+                os.rename(tmp, final)
+            except OSError:
+                # another process installed the same key first: theirs is as good as ours
+                if self.lookup(stage, key, log) is None:
+                    raise
+                shutil.rmtree(tmp, ignore_errors=True)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return final
+
+    def _discard(self, d: Path) -> None:
+        bad = d.parent / f"{BAD_PREFIX}{d.name[:16]}-{uuid.uuid4().hex[:8]}"
+        try:
+            os.rename(d, bad)
+        except OSError:
+            bad = d
+        shutil.rmtree(bad, ignore_errors=True)
+
+    # ------------------------------------------------------------------ refs (gc roots)
+    def set_ref(self, name: str, keys: Iterable[tuple[str, str]]) -> Path:
+        """Record ``(stage, key)`` pairs used by the latest run called ``name`` (a gc root)."""
+        d = self.root / REFS_DIR
+        d.mkdir(parents=True, exist_ok=True)
+        p = d / f"{name}.json"
+        tmp = d / f".{name}.{os.getpid()}.tmp"
+        tmp.write_text(json.dumps({"name": name, "updated": time.time(),
+                                   "artifacts": sorted({(s, k) for s, k in keys})}, indent=1))
+        tmp.replace(p)
+        return p
+
+    def refs(self) -> dict[str, list[tuple[str, str]]]:
+        """All ref files: name -> list of ``(stage, key)``."""
+        out = {}
+        d = self.root / REFS_DIR
+        if d.is_dir():
+            for p in sorted(d.glob("*.json")):
+                try:
+                    out[p.stem] = [tuple(x) for x in json.loads(p.read_text())["artifacts"]]
+                except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+                    continue
+        return out
+
+    # ------------------------------------------------------------------ listing and gc
+    def _iter_dirs(self):
+        if not self.root.is_dir():
+            return
+        for sd in sorted(self.root.iterdir()):
+            if not sd.is_dir() or sd.name == REFS_DIR or sd.name.startswith("."):
+                continue
+            for ad in sorted(sd.iterdir()):
+                if ad.is_dir() and not ad.name.startswith("."):
+                    yield _Dir(sd.name, ad.name, ad)
+
+    def ls(self, stage: str | None = None) -> list[ArtifactInfo]:
+        """Every artifact with a readable manifest (not re-verified), oldest first."""
+        out = []
+        for a in self._iter_dirs():
+            if stage is not None and a.stage != stage:
+                continue
+            try:
+                man = json.loads((a.path / MANIFEST).read_text())
+                size = sum(int(m["size"]) for m in man["files"].values())
+                out.append(ArtifactInfo(a.stage, a.key, a.path, size, man.get("created", ""),
+                                        dict(man.get("inputs", {})), dict(man.get("config", {}))))
+            except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError):
+                out.append(ArtifactInfo(a.stage, a.key, a.path, 0, "", {}, {}))
+        out.sort(key=lambda i: (i.created, i.stage, i.key))
+        return out
+
+    def stale_temp_dirs(self, min_age_s: float = 0.0) -> list[Path]:
+        """Temporary and quarantined directories whose writer is gone (or older than min_age_s)."""
+        out = []
+        if not self.root.is_dir():
+            return out
+        now = time.time()
+        for sd in self.root.iterdir():
+            if not sd.is_dir():
+                continue
+            for d in sd.iterdir():
+                if not d.name.startswith((TMP_PREFIX, BAD_PREFIX)):
+                    continue
+                if d.name.startswith(TMP_PREFIX) and _writer_alive(d.name):
+                    continue
+                if now - d.stat().st_mtime >= min_age_s:
+                    out.append(d)
+        return sorted(out)
+
+    def gc(self, keep_newest: int = 1, dry_run: bool = False) -> list[Path]:
+        """Remove unreferenced artifacts and stale temp dirs (policy: module docstring).
+
+        Returns the removed (or, with ``dry_run``, the removable) paths.
+        """
+        infos = self.ls()
+        by_key = {(i.stage, i.key): i for i in infos}
+        roots: set[tuple[str, str]] = set()
+        for keys in self.refs().values():
+            roots.update(k for k in keys if k in by_key)
+        per_stage: dict[str, list[ArtifactInfo]] = {}
+        for i in infos:
+            per_stage.setdefault(i.stage, []).append(i)
+        for stage, items in per_stage.items():
+            if stage in PER_ITEM_STAGES or keep_newest <= 0:
+                continue
+            roots.update((i.stage, i.key) for i in items[-keep_newest:])
+        # input keys name no stage: index every artifact by key
+        stage_of = {}
+        for s, k in by_key:
+            stage_of.setdefault(k, []).append(s)
+        kept: set[tuple[str, str]] = set()
+        todo = list(roots)
+        while todo:
+            sk = todo.pop()
+            if sk in kept:
+                continue
+            kept.add(sk)
+            for ik in by_key[sk].inputs.values():
+                todo.extend((s, ik) for s in stage_of.get(ik, []))
+        kept_keys = {k for _, k in kept}
+        for i in infos:
+            if i.stage in PER_ITEM_STAGES and i.inputs and all(v in kept_keys for v in i.inputs.values()):
+                kept.add((i.stage, i.key))
+        removable = [i.path for i in infos if (i.stage, i.key) not in kept]
+        removable += self.stale_temp_dirs()
+        if not dry_run:
+            for p in removable:
+                shutil.rmtree(p, ignore_errors=True)
+        return removable
+
+
+@dataclass(frozen=True)
+class _Dir:
+    stage: str
+    key: str
+    path: Path
+
+
+def _writer_alive(name: str) -> bool:
+    """Whether the process that owns temp dir ``.tmp-<key>-<pid>-<rand>`` still runs."""
+    try:
+        pid = int(name.split("-")[2])
+    except (IndexError, ValueError):
+        return False
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def run_stage(store: ArtifactStore, stage: str, config: Any, inputs: dict[str, str], version: int,
+              compute: Callable[[Path], None], force: bool = False,
+              log: Log = _noop) -> tuple[Path, str, bool]:
+    """Return ``(artifact dir, key, cached)``, running ``compute(tmpdir)`` only on a miss.
+
+    The key (:func:`stage_key`) is computed first; a verified artifact with that key is reused
+    (``cached=True``, ``compute`` is not called) unless ``force``. A corrupt one is discarded
+    with a warning and recomputed.
+    """
+    key = stage_key(stage, config, inputs, version)
+    if not force:
+        hit = store.lookup(stage, key, log)
+        if hit is not None:
+            log(f"{stage}: cached {key[:12]}")
+            return hit, key, True
+    log(f"{stage}: computing {key[:12]}")
+    path = store.write(stage, key, compute, config=config, inputs=inputs, version=version, log=log)
+    return path, key, False
