@@ -1,0 +1,21 @@
+"""The spatial world model of paper section 3.1: occupancy and colour voxel grids.
+
+* :mod:`.grid` — :class:`GridSpec`, :class:`VoxelMap`, trilinear lookup, map files, horizontal
+  occupancy slices, and :func:`voxelize_level` (the true geometry as a grid);
+* :mod:`.diffrender` — the differentiable renderer of eq. 1-2 in torch and ``laplace_nll``;
+* :mod:`.fastrender` — ``render_map``, the numba inference renderer (same images, no gradients);
+* :mod:`.views` — the pose-labelled RGB-D ``Views`` artifact, ``collect_views``, TUM I/O;
+* :mod:`.fit` — ``fit_map`` (eq. 3 by Adam) and ``evaluate_map``;
+* :mod:`.plots` — slice and isometric drawings into a given matplotlib axis.
+
+Only :mod:`.grid` is imported here; torch and numba load with the submodules that need them.
+"""
+
+from navbench.worldmodel.grid import (  # noqa: F401
+    GridSpec,
+    VoxelMap,
+    grid_for_level,
+    load_map,
+    occupancy_slice,
+    save_map,
+)
