@@ -1,0 +1,96 @@
+"""``navbench make-level``: generate a level file ``levels/NAME.json`` (or all benchmark levels)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from navbench.cli._common import console
+
+
+def _write(level, force: bool) -> tuple[Path, str]:
+    """Write ``levels/<name>.json`` under the working directory; refuse to replace a different
+    file unless ``force``. Returns the path and what happened (written/unchanged/replaced)."""
+    from navbench.errors import LevelError
+    from navbench.level import dumps_level, level_path, save_level
+
+    path = level_path(level.name)
+    text = dumps_level(level)
+    if path.exists():
+        try:
+            old = path.read_text()
+        except (OSError, UnicodeDecodeError):
+            old = None
+        if old == text:
+            return path, "unchanged"
+        if not force:
+            raise LevelError(f"{path} exists and differs from the generated level; "
+                             "pass --force to overwrite it")
+        save_level(level, path)
+        return path, "replaced"
+    save_level(level, path)
+    return path, "written"
+
+
+def _summary(level, path: Path, what: str) -> str:
+    from navbench.levelgen import level_stats
+
+    s = level_stats(level)
+    rooms = f"{s['rooms']} rooms, " if s["rooms"] else ""
+    return (f"[bold]{level.name}[/bold]: {rooms}{s['walls']} walls, {s['obstacles']} obstacles, "
+            f"free area {s['free_area_m2']:.1f} m² at 1.2 L clearance, "
+            f"{level.width:g} × {level.depth:g} m -> {path} ({what})")
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("make-level")
+    def make_level(
+        name: str = typer.Argument(None, help="Level name; the file is levels/NAME.json."),
+        seed: int = typer.Option(None, "--seed", min=0, help="Generator seed (required unless --benchmark)."),
+        kind: str = typer.Option("house", "--kind", help="house or maze."),
+        size: float = typer.Option(None, "--size", help="Footprint's longer side, metres "
+                                   "(default 11.4 for houses, 9.7 for the maze)."),
+        rooms: int = typer.Option(None, "--rooms", help="Number of rooms, corridor included "
+                                  "(default: 4-8 drawn from the seed)."),
+        obstacles: int = typer.Option(None, "--obstacles", help="Number of furniture obstacles."),
+        from_houseexpo: Path = typer.Option(None, "--from-houseexpo", help="Import the outline "
+                                            "of a HouseExpo JSON file instead of generating one."),
+        benchmark: bool = typer.Option(False, "--benchmark", help="(Re)generate all the benchmark "
+                                       "levels of navbench.levelgen.BENCHMARK_LEVELS."),
+        force: bool = typer.Option(False, "--force", help="Overwrite an existing, different file."),
+    ):
+        """Generate a level and write levels/NAME.json in the current directory."""
+        import json
+
+        from navbench.errors import ConfigError, LevelError
+        from navbench import levelgen
+
+        if benchmark:
+            if name is not None or seed is not None or from_houseexpo is not None:
+                raise ConfigError("--benchmark takes no NAME, --seed or --from-houseexpo")
+            for lv in levelgen.benchmark_levels():
+                path, what = _write(lv, force)
+                console.print(_summary(lv, path, what), soft_wrap=True)
+            return
+        if name is None:
+            raise ConfigError("give a level NAME (or --benchmark)")
+        if seed is None:
+            raise ConfigError("--seed is required")
+        if from_houseexpo is not None:
+            if kind != "house" or rooms is not None:
+                raise ConfigError("--from-houseexpo takes no --kind or --rooms")
+            try:
+                doc = json.loads(from_houseexpo.read_text())
+            except FileNotFoundError:
+                raise LevelError(f"{from_houseexpo}: no such file") from None
+            except (json.JSONDecodeError, UnicodeDecodeError) as e:
+                raise LevelError(f"{from_houseexpo}: not valid JSON ({e})") from None
+            level = levelgen.level_from_houseexpo(
+                doc, name, seed, size=levelgen.DEFAULT_SIZE if size is None else size,
+                obstacles=8 if obstacles is None else obstacles)
+        else:
+            level = levelgen.make_level(name, seed, kind=kind, size=size, rooms=rooms,
+                                        obstacles=obstacles)
+        path, what = _write(level, force)
+        console.print(_summary(level, path, what), soft_wrap=True)
