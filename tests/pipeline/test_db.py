@@ -1,0 +1,267 @@
+"""Results database: round trips, duplicate-proof inserts, filters, errors (SQLite + PostgreSQL).
+
+The PostgreSQL variant runs when ``NAVBENCH_TEST_PG_URL`` names a reachable server (for example
+``postgresql+psycopg://postgres@localhost/navbench_test``); each test gets its own schema, dropped
+afterwards, so the database named there is left as it was.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from dataclasses import dataclass
+from urllib.parse import quote
+
+import numpy as np
+import pytest
+
+from navbench.errors import DatabaseError
+from navbench.pipeline.db import ResultsDB, episode_row_from_score
+
+PG_URL = os.environ.get("NAVBENCH_TEST_PG_URL")
+
+
+@dataclass
+class FakeScore:
+    success: bool
+    path_length: float
+    optimal_length: float
+    spl_term: float
+    loc_rmse_m: float
+    rot_rmse_deg: float
+    steps: int
+
+
+@dataclass(frozen=True)
+class FakeTask:
+    id: int
+    start: tuple
+    target: tuple
+    optimal_length: float
+
+
+def episode(cell="cellA", task_id=0, seed=0, level="l1", estimator="ours", noise="low",
+            success=True, spl_term=0.9, **extra) -> dict:
+    row = dict(cell_key=cell, level=level, map_key="mapk", task_set_key="tsk", task_id=task_id,
+               estimator=estimator, estimator_options={"steps": 100}, noise=noise, seed=seed,
+               success=success, spl_term=spl_term, path_length=5.0, optimal_length=4.5, steps=40,
+               end_reason="reached", collided=False, loc_rmse_m=0.05, rot_rmse_deg=1.0,
+               step_ms=12.0, traj_key=f"traj-{cell}-{task_id}-{seed}")
+    row.update(extra)
+    return row
+
+
+def _pg_schema_url(base: str, schema: str) -> str:
+    sep = "&" if "?" in base else "?"
+    return f"{base}{sep}options={quote(f'-csearch_path={schema}')}"
+
+
+@pytest.fixture(params=["sqlite", pytest.param("postgres", marks=pytest.mark.postgres)])
+def db(request, tmp_path):
+    if request.param == "sqlite":
+        d = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+        yield d
+        d.close()
+        return
+    if not PG_URL:
+        pytest.skip("NAVBENCH_TEST_PG_URL is not set (no PostgreSQL server to test against)")
+    from sqlalchemy import create_engine, text
+
+    schema = f"nbtest_{uuid.uuid4().hex[:12]}"
+    admin = create_engine(PG_URL)
+    with admin.begin() as conn:
+        conn.execute(text(f'CREATE SCHEMA "{schema}"'))
+    d = ResultsDB(_pg_schema_url(PG_URL, schema))
+    try:
+        yield d
+    finally:
+        d.close()
+        with admin.begin() as conn:
+            conn.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
+        admin.dispose()
+
+
+def test_run_lifecycle(db):
+    rid = db.start_run("quick", "run-navigation", {"a": 1, "b": [1.5, 2]}, "h" * 64)
+    rid2 = db.start_run("quick", "all", {}, "g" * 64)
+    assert rid2 > rid
+    runs = db.runs_frame()
+    assert list(runs["id"]) == [rid, rid2]
+    first = runs.iloc[0]
+    assert first["status"] == "running" and first["config"] == {"a": 1, "b": [1.5, 2]}
+    assert first["config_hash"] == "h" * 64 and first["host"] and first["cpu"]
+    assert first["navbench_version"]
+    db.finish_run(rid, "failed")
+    runs = db.runs_frame()
+    assert runs.iloc[0]["status"] == "failed" and runs.iloc[0]["finished"] is not None
+    assert runs.iloc[0]["finished"] >= runs.iloc[0]["started"]
+    assert db.latest_run_id() == rid2
+    assert db.latest_run_id(command="run-navigation") == rid
+    with pytest.raises(DatabaseError):
+        db.finish_run(9999)
+    with pytest.raises(DatabaseError):
+        db.finish_run(rid, "weird")
+
+
+def test_episodes_unique_and_done_keys(db):
+    rid = db.start_run("quick", "run-navigation", {}, "x")
+    rows = [episode(task_id=t, seed=s) for t in range(3) for s in (0, 1)]
+    rows.append(episode(cell="cellB", task_id=0, seed=0, estimator="dynamics"))
+    assert db.add_episodes(rid, rows) == 7
+    assert db.add_episodes(rid, rows) == 0  # same rows again: nothing new
+    # a batch with one new row and an in-batch duplicate of it
+    assert db.add_episodes(rid, rows[:2] + [episode(task_id=9), episode(task_id=9)]) == 1
+    frame = db.episodes_frame()
+    assert len(frame) == 8
+    assert not frame.duplicated(["cell_key", "task_id", "seed"]).any()
+    done = db.done_episode_keys(["cellA", "cellZ"])
+    assert done == {("cellA", t, s) for t in range(3) for s in (0, 1)} | {("cellA", 9, 0)}
+    assert db.done_episode_keys([]) == set()
+    # the first stored value stays
+    assert db.add_episodes(rid, [episode(task_id=0, seed=0, spl_term=0.1)]) == 0
+    got = db.episodes_frame(cell_key="cellA", task_id=0, seed=0)
+    assert len(got) == 1 and got.iloc[0]["spl_term"] == pytest.approx(0.9)
+
+
+def test_episodes_frame_filters_and_types(db):
+    r1 = db.start_run("quick", "run-navigation", {}, "x")
+    r2 = db.start_run("quick", "run-navigation", {}, "y")
+    db.add_episodes(r1, [episode(task_id=0, level="l1", noise="low"),
+                         episode(task_id=1, level="l2", noise="mid", success=False, spl_term=0.0,
+                                 loc_rmse_m=float("nan"))])
+    db.add_episodes(r2, [episode(cell="c2", task_id=0, level="l1", noise="high",
+                                 estimator="no-map")])
+    assert len(db.episodes_frame()) == 3
+    assert list(db.episodes_frame(run_ids=[r2])["estimator"]) == ["no-map"]
+    assert len(db.episodes_frame(run_ids=[r1, r2], level="l1")) == 2
+    assert set(db.episodes_frame(noise=["low", "mid"])["task_id"]) == {0, 1}
+    assert len(db.episodes_frame(level="l1", noise="mid")) == 0
+    f = db.episodes_frame(level="l2")
+    row = f.iloc[0]
+    assert not bool(row["success"]) and np.isnan(row["loc_rmse_m"])  # NaN stored as NULL
+    assert row["estimator_options"] == {"steps": 100}
+    assert f["spl_term"].dtype == float
+    with pytest.raises(ValueError):
+        db.episodes_frame(colour="red")
+    empty = db.episodes_frame(level="nowhere")
+    assert len(empty) == 0 and "spl_term" in empty.columns
+
+
+def test_episode_row_validation(db):
+    rid = db.start_run("quick", "run-navigation", {}, "x")
+    with pytest.raises(DatabaseError, match="unknown column"):
+        db.add_episodes(rid, [episode(colour="red")])
+    bad = episode()
+    del bad["spl_term"]
+    with pytest.raises(DatabaseError, match="spl_term"):
+        db.add_episodes(rid, [bad])
+    with pytest.raises(DatabaseError):  # foreign key: no such run
+        db.add_episodes(rid + 100, [episode()])
+    assert len(db.episodes_frame()) == 0
+
+
+def test_episode_row_from_score_round_trip(db):
+    rid = db.start_run("quick", "run-navigation", {}, "x")
+    timings = {"sim": np.array([1.0, 2.0, 3.0]), "render": np.array([10.0, 10.0, 40.0]),
+               "estimate": np.array([5.0, 7.0, 6.0]), "plan": np.array([0.0, 0.0, 9.0]),
+               "control": np.array([0.5, 0.5, 0.5])}
+    meta = dict(level="l1", map_key="m", task_set_key="ts", estimator="ours",
+                estimator_options={"lr": 0.02}, noise="mid", seed=np.int64(3), task_id=7,
+                timings_ms=timings, end_reason="reached", collided=False)
+    score = FakeScore(True, 4.0, 3.6, 0.9, np.float64(0.04), 1.5, 3)
+    row = episode_row_from_score("cell", meta, score, "trajkey")
+    assert row["sim_ms"] == 2.0 and row["render_ms"] == 10.0 and row["estimate_ms"] == 6.0
+    assert row["plan_ms"] == 0.0 and row["control_ms"] == 0.5
+    # per-step sums 16.5, 19.5, 58.5 -> median 19.5
+    assert row["step_ms"] == pytest.approx(19.5)
+    assert db.add_episodes(rid, [row]) == 1
+    got = db.episodes_frame().iloc[0]
+    assert got["cell_key"] == "cell" and got["task_id"] == 7 and got["seed"] == 3
+    assert got["traj_key"] == "trajkey" and got["end_reason"] == "reached"
+    assert got["loc_rmse_m"] == pytest.approx(0.04) and got["step_ms"] == pytest.approx(19.5)
+    assert got["estimator_options"] == {"lr": 0.02} and bool(got["success"])
+
+
+def test_levels_maps_tasks_idempotent(db):
+    db.record_level("l1", "abc", {"rooms": 3})
+    db.record_level("l1", "abc", {"rooms": 3})
+    db.record_level("l1", "def", {"rooms": 4})
+    lv = db.levels_frame()
+    assert list(zip(lv["name"], lv["content_hash"])) == [("l1", "abc"), ("l1", "def")]
+    db.record_map("l1", "map1", {"depth_mae_m": 0.05, "rgb_l1": 0.1, "steps": 1000, "extra": 2.0})
+    db.record_map("l1", "map1", {"depth_mae_m": 9.0})
+    maps = db.maps_frame()
+    assert len(maps) == 1
+    m = maps.iloc[0]
+    assert m["depth_mae_m"] == 0.05 and m["steps"] == 1000 and np.isnan(m["slice_recall"])
+    assert m["metrics"]["extra"] == 2.0
+    tasks = [FakeTask(0, (1.0, 2.0, 0.5), (3.0, 4.0), 2.9), FakeTask(1, (1.5, 2.0, 0.0), (5.0, 4.0), 4.1)]
+    db.record_task_set("l1", "ts1", tasks)
+    db.record_task_set("l1", "ts1", tasks)
+    t = db.tasks_frame("ts1")
+    assert list(t["task_id"]) == [0, 1]
+    assert t.iloc[1]["target_x"] == 5.0 and t.iloc[0]["start_theta"] == 0.5
+    assert len(db.tasks_frame(level="nowhere")) == 0
+
+
+def test_tracking_and_bench_rows(db):
+    rid = db.start_run("quick", "track", {}, "x")
+    rows = [dict(study_key="s1", level="l1", estimator=e, estimator_options={}, noise="tracking",
+                 trajectory_id=i, seed=0, loc_rmse_m=0.01 * i, rot_rmse_deg=0.5, step_ms_median=30.0)
+            for e in ("ours", "emission") for i in range(3)]
+    assert db.add_tracking_rows(rid, rows) == 6
+    assert db.add_tracking_rows(rid, rows) == 0
+    assert len(db.tracking_frame(estimator="ours")) == 3
+    assert len(db.tracking_frame(run_ids=[rid], level="l1")) == 6
+    bench = [dict(metric="render_ms", value=np.float32(4.5), unit="ms"),
+             dict(metric="render_ms", value=1.0, unit="ms", device="cuda:0")]
+    assert db.add_bench_rows(rid, bench) == 2
+    assert db.add_bench_rows(rid, bench) == 0
+    b = db.bench_frame()
+    assert list(b["device"]) == ["cpu", "cuda:0"]
+    assert b.iloc[0]["value"] == 4.5 and b.iloc[0]["host"] and b.iloc[0]["navbench_version"]
+    with pytest.raises(DatabaseError):
+        db.add_bench_rows(rid + 50, bench)
+
+
+def test_default_url_is_relative_sqlite(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("NAVBENCH_DB", raising=False)
+    d = ResultsDB()
+    assert d.url == "sqlite:///results/navbench.db"
+    d.start_run("quick", "x", {}, "h")
+    d.close()
+    assert (tmp_path / "results" / "navbench.db").is_file()
+    monkeypatch.setenv("NAVBENCH_DB", f"sqlite:///{tmp_path / 'other.db'}")
+    d = ResultsDB()
+    d.close()
+    assert (tmp_path / "other.db").is_file()
+
+
+@pytest.mark.parametrize("url", [
+    "not a url",
+    "nosuchdialect://x/y",
+    "postgresql+psycopg://nobody@127.0.0.1:1/nothing?connect_timeout=2",
+])
+def test_bad_urls_are_one_line_database_errors(url):
+    with pytest.raises(DatabaseError) as info:
+        ResultsDB(url)
+    assert "\n" not in str(info.value)
+
+
+def test_generic_insert_fallback_ignores_duplicates(db):
+    """The select-then-insert path used for dialects without ON CONFLICT."""
+    from navbench.pipeline.db import EpisodeRow
+
+    rid = db.start_run("quick", "run-navigation", {}, "x")
+    db.add_episodes(rid, [episode(task_id=0)])
+    full = db.episodes_frame().drop(columns=["id"]).iloc[0].to_dict()
+    rows = []
+    for t in (0, 1, 1, 2):
+        r = dict(full, task_id=t)
+        r["recorded"] = r["recorded"].to_pydatetime()
+        rows.append(r)
+    with db._begin() as conn:
+        assert db._insert_ignore(conn, EpisodeRow, rows, ("cell_key", "task_id", "seed"),
+                                 dialect="generic") == 2
+    assert sorted(db.episodes_frame()["task_id"]) == [0, 1, 2]
