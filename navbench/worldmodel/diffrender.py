@@ -1,0 +1,209 @@
+"""The differentiable renderer of paper section 3.1 (eq. 1-2) in torch, and ``laplace_nll``.
+
+Rays are given in the world frame: origins ``c (R, 3)`` and directions ``v (R, 3)`` with
+``v = R_wc K^-1 [i j 1]^T`` (so ``k`` along the ray is the z-depth). Samples
+``p_m = c + m Delta v`` for ``m = 1..n``; ``f`` and ``g`` are trilinear on the grids (the
+convention of :mod:`navbench.worldmodel.grid`, border-clamped). Eq. 1: ``p+`` is the first
+sample with ``f > tau``, ``p-`` the sample before it, ``alpha = (tau - f(p-)) / (f(p+) - f(p-))``,
+``k* = alpha k+ + (1 - alpha) k-`` and the colour is ``g(p*)``, ``p* = c + k* v``.
+
+Edge cases (identical in :mod:`navbench.worldmodel.fastrender`):
+
+* crossing at ``m = 1``: ``p-`` is the camera centre ``c`` (``k- = 0``);
+* ``f(c) > tau`` too, or no sample above ``tau`` within ``n Delta``: the ray has **no
+  crossing** (``hit = False``). Eq. 1 gives it no depth and no gradient; in eq. 3 such rays
+  contribute nothing (they are masked out of :func:`laplace_nll`). The fitting code may add a
+  documented auxiliary term for them (see :mod:`navbench.worldmodel.fit`).
+
+Gradients reach ``M_occ`` through ``f(p-)`` and ``f(p+)`` (the 16 cells around the two
+bracketing samples) and ``M_col`` through ``g(p*)``. By default ``p*`` enters ``g`` with its
+gradient stopped (colour does not move the surface); ``colour_moves_surface=True`` keeps the
+full derivative (used by the finite-difference test).
+
+Two implementations with the same values and gradients:
+
+* :func:`render_rays_dense` — the reference: every sample evaluated with autograd;
+* :func:`render_rays` — the training path: the crossing search runs without gradients
+  (numba, early termination), then only ``p-``, ``p+`` and ``p*`` are evaluated with autograd.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+import torch
+
+from navbench.worldmodel.fastrender import _cell, _f, _tri  # noqa: F401  (numba helpers)
+from navbench.worldmodel.grid import GridSpec
+
+
+class RayRender(NamedTuple):
+    """Per-ray output of the renderer."""
+
+    depth: torch.Tensor  # (R,) k*, metres (0 where hit is False)
+    rgb: torch.Tensor  # (R, 3) g(p*) (0 where hit is False), not clipped
+    hit: torch.Tensor  # (R,) bool: the ray has a crossing (eq. 1 defined)
+
+
+def grid_tensors(spec: GridSpec, dtype=torch.float32) -> tuple[torch.Tensor, torch.Tensor]:
+    """``lo (3,)`` and ``size (3,)`` of ``spec`` as tensors."""
+    return (torch.tensor(spec.lo, dtype=dtype), torch.tensor(spec.size, dtype=dtype))
+
+
+def trilinear_t(grid: torch.Tensor, spec: GridSpec, points: torch.Tensor) -> torch.Tensor:
+    """``f``/``g`` in torch: trilinear lookup of ``grid (nx, ny, nz[, C])`` at ``points (..., 3)``.
+
+    Differentiable w.r.t. ``grid`` and ``points``; border-clamped like the numpy reference.
+    Returns ``(...)`` or ``(..., C)``.
+    """
+    nx, ny, nz = spec.shape
+    lo, size = grid_tensors(spec, points.dtype)
+    u = (points - lo) / size - 0.5
+    n = torch.tensor([nx - 1, ny - 1, nz - 1], dtype=points.dtype)
+    u = torch.minimum(torch.clamp(u, min=0.0), n)
+    i0 = torch.minimum(u.detach().floor().long(), (n - 1).long())
+    t = u - i0.to(points.dtype)
+    C = grid.shape[3] if grid.dim() == 4 else 1
+    flat = grid.reshape(nx * ny * nz, C)
+    base = (i0[..., 0] * ny + i0[..., 1]) * nz + i0[..., 2]
+    tx, ty, tz = t[..., 0:1], t[..., 1:2], t[..., 2:3]
+    out = 0.0
+    for dx in (0, 1):
+        wx = tx if dx else 1 - tx
+        for dy in (0, 1):
+            wy = ty if dy else 1 - ty
+            for dz in (0, 1):
+                wz = tz if dz else 1 - tz
+                idx = base + (dx * ny + dy) * nz + dz
+                out = out + (wx * wy * wz) * flat[idx]
+    return out if grid.dim() == 4 else out[..., 0]
+
+
+def _crossing(f_minus, f_plus, k_minus, step, tau):
+    alpha = (tau - f_minus) / (f_plus - f_minus)
+    return k_minus + alpha * step
+
+
+def render_rays_dense(occ: torch.Tensor, col: torch.Tensor, spec: GridSpec, tau: float,
+                      origins: torch.Tensor, dirs: torch.Tensor, step: float, n: int,
+                      colour_moves_surface: bool = False) -> RayRender:
+    """Reference eq. 1 renderer: ``f`` at all ``n + 1`` samples (``m = 0..n``) with autograd.
+
+    ``occ (nx, ny, nz)``, ``col (nx, ny, nz, 3)`` tensors; ``origins``, ``dirs`` ``(R, 3)``
+    world metres; ``step`` Delta (m); ``n`` samples. Memory ``O(R n)``: for tests and small
+    batches.
+    """
+    R = origins.shape[0]
+    ks = torch.arange(n + 1, dtype=origins.dtype) * step  # (n + 1,)
+    pts = origins[:, None, :] + ks[None, :, None] * dirs[:, None, :]
+    f = trilinear_t(occ, spec, pts)  # (R, n + 1)
+    above = (f[:, 1:] > tau).detach()
+    any_above = above.any(dim=1)
+    m = torch.where(any_above, above.float().argmax(dim=1) + 1, torch.ones(R, dtype=torch.long))
+    rows = torch.arange(R)
+    f_plus, f_minus = f[rows, m], f[rows, m - 1]
+    hit = any_above & (f_minus <= tau).detach()
+    return _finish(col, spec, origins, dirs, f_minus, f_plus, (m - 1).to(origins.dtype) * step,
+                   step, tau, hit, colour_moves_surface)
+
+
+def _finish(col, spec, origins, dirs, f_minus, f_plus, k_minus, step, tau, hit,
+            colour_moves_surface):
+    # keep the masked-out rays finite (their f_plus - f_minus may be 0)
+    safe_plus = torch.where(hit, f_plus, f_minus.detach() + 1.0)
+    k = _crossing(f_minus, safe_plus, k_minus, step, tau)
+    k = torch.where(hit, k, torch.zeros_like(k))
+    kc = k if colour_moves_surface else k.detach()
+    p_star = origins + kc[:, None] * dirs
+    rgb = trilinear_t(col, spec, p_star) * hit[:, None].to(col.dtype)
+    return RayRender(k, rgb, hit)
+
+
+@nb.njit(cache=True, parallel=True)
+def first_crossing_index(occ, u_o, du, n, tau):
+    """Eq. 1 crossing search without gradients: ``m`` of ``p+`` per ray, 0 when none.
+
+    ``u_o (R, 3)``: ray origins in continuous cell indices; ``du (R, 3)``: ``Delta v`` in cell
+    units. Returns ``(R,)`` int64: the first ``m`` in ``1..n`` with ``f(p_m) > tau`` provided
+    ``f(p_{m-1}) <= tau``, else 0.
+    """
+    nx, ny, nz = occ.shape
+    R = u_o.shape[0]
+    out = np.zeros(R, np.int64)
+    for r in nb.prange(R):
+        for m in range(1, n + 1):
+            fv = _f(occ, u_o[r, 0] + m * du[r, 0], u_o[r, 1] + m * du[r, 1],
+                    u_o[r, 2] + m * du[r, 2], nx, ny, nz)
+            if fv > tau:
+                if m == 1 and _f(occ, u_o[r, 0], u_o[r, 1], u_o[r, 2], nx, ny, nz) > tau:
+                    break  # the camera is inside occupied space
+                out[r] = m
+                break
+    return out
+
+
+def render_rays(occ: torch.Tensor, col: torch.Tensor, spec: GridSpec, tau: float,
+                origins: torch.Tensor, dirs: torch.Tensor, step: float, n: int,
+                colour_moves_surface: bool = False) -> RayRender:
+    """Training path of eq. 1: numba crossing search, then autograd at ``p-``, ``p+``, ``p*`` only.
+
+    Same arguments, values and gradients as :func:`render_rays_dense` (up to float rounding of
+    the sample positions when a sample lies exactly on ``tau``).
+    """
+    size = spec.size
+    lo = np.asarray(spec.lo)
+    o = origins.detach().double().numpy()
+    d = dirs.detach().double().numpy()
+    m = first_crossing_index(occ.detach().numpy(), (o - lo) / size - 0.5, d * step / size,
+                             int(n), float(tau))
+    m = torch.from_numpy(m)
+    hit = m > 0
+    m1 = torch.clamp(m, min=1)
+    k_minus = (m1 - 1).to(origins.dtype) * step
+    k_plus = m1.to(origins.dtype) * step
+    pts = torch.stack([origins + k_minus[:, None] * dirs, origins + k_plus[:, None] * dirs], 0)
+    f = trilinear_t(occ, spec, pts)  # (2, R)
+    # the search ran in float64 positions: re-check the bracket in the working precision
+    hit = hit & (f[1] > tau).detach() & (f[0] <= tau).detach()
+    return _finish(col, spec, origins, dirs, f[0], f[1], k_minus, step, tau, hit,
+                   colour_moves_surface)
+
+
+def world_rays(T_wc: torch.Tensor | np.ndarray, cam_rays: np.ndarray, dtype=torch.float32):
+    """World origins and directions for camera-frame rays ``(R, 3)`` (``K^-1 [i j 1]``).
+
+    ``T_wc``: ``(4, 4)`` or ``(B, 4, 4)`` with ``cam_rays (B, R, 3)``. Returns ``(..., 3)`` each.
+    """
+    T = torch.as_tensor(np.asarray(T_wc), dtype=dtype)
+    r = torch.as_tensor(np.asarray(cam_rays), dtype=dtype)
+    dirs = r @ T[..., :3, :3].transpose(-1, -2)
+    origins = T[..., None, :3, 3].expand(dirs.shape)
+    return origins, dirs
+
+
+def laplace_nll(rgb_pred: torch.Tensor, depth_pred: torch.Tensor, rgb_obs: torch.Tensor,
+                depth_obs: torch.Tensor, sigma2: torch.Tensor, mask: torch.Tensor | None = None,
+                reduction: str = "mean") -> torch.Tensor:
+    """Negative log-likelihood of eq. 2 per pixel: Laplace on ``[rgb; depth]``.
+
+    ``rgb_* (R, 3)`` in ``[0, 1]``, ``depth_* (R,)`` metres; scales ``sigma1 = sigma2 / 5``
+    (colour) and ``sigma2`` (depth, m); ``mask (R,)`` bool selects the pixels that count
+    (rays with a crossing and a valid observation). Per pixel:
+    ``sum_c (|x_c - g_c| / s1 + log 2 s1) + |x_d - k*| / s2 + log 2 s2``.
+    ``reduction``: ``"mean"`` over the masked pixels (0 when none), ``"sum"``, or ``"none"``
+    (``(R,)``, 0 where masked out).
+    """
+    s2 = sigma2
+    s1 = sigma2 / 5.0
+    per = ((rgb_obs - rgb_pred).abs().sum(-1) / s1 + 3 * torch.log(2 * s1)
+           + (depth_obs - depth_pred).abs() / s2 + torch.log(2 * s2))
+    if mask is not None:
+        per = torch.where(mask, per, torch.zeros_like(per))
+    if reduction == "none":
+        return per
+    if reduction == "sum":
+        return per.sum()
+    count = per.numel() if mask is None else mask.sum()
+    return per.sum() / torch.clamp(torch.as_tensor(count, dtype=per.dtype), min=1.0)
