@@ -1,0 +1,158 @@
+"""Collision world and simulator: stop at contact, never overlap, prohibited movement, seeding."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navbench.errors import TaskError
+from navbench.geometry import AGENT_LENGTH, HALF_CAMERA
+from navbench.level import distance_to_solids, load_level
+from navbench.sim.dynamics import MAX_STEP, MAX_TURN, Control
+from navbench.sim.world import CollisionWorld, Simulator, sample_free_points
+
+from .fixtures import box_before_wall, rooms, single_wall
+
+HOUSE_1 = Path(__file__).resolve().parents[2] / "levels" / "house-1.json"
+
+
+def _level(name):
+    if name == "house-1":
+        if not HOUSE_1.is_file():
+            pytest.skip("levels/house-1.json not generated yet")
+        return load_level(HOUSE_1)
+    return rooms()
+
+
+def test_walk_into_wall_stops_at_contact():
+    sim = Simulator(single_wall(), "none", seed=0, intrinsics=None)  # wall face at x = 2.95
+    sim.reset((1.95, 5.0, 0.0))  # 1 m from the face
+    for k in range(30):
+        res = sim.step(Control(0.0, 0.0, MAX_STEP))
+        if res.collided:
+            break
+    assert res.collided and sim.collision_step == k == int(math.ceil((1.0 - AGENT_LENGTH / 2) / MAX_STEP)) - 1
+    assert res.pose[0] == pytest.approx(2.95 - AGENT_LENGTH / 2, abs=1e-3)
+    assert res.pose[0] < 2.95 - AGENT_LENGTH / 2  # never overlapping
+    assert res.pose[1] == 5.0
+    frozen = res.pose.copy()
+    for u in [Control(0.0, 0.0, MAX_STEP), Control(MAX_TURN, math.pi, MAX_STEP), Control(-0.1, 0.0, 0.0)]:
+        res = sim.step(u)
+        np.testing.assert_array_equal(res.pose, frozen)
+        assert res.collided
+
+
+def test_low_box_blocks_the_agent():
+    sim = Simulator(box_before_wall(0.3), "none", intrinsics=None)  # box face at x = 2
+    sim.reset((1.0, 5.0, 0.0))
+    while not sim.step(Control(0.0, 0.0, MAX_STEP)).collided:
+        pass
+    assert sim.pose[0] == pytest.approx(2.0 - AGENT_LENGTH / 2, abs=1e-3)
+
+
+def test_level_boundary_blocks_the_agent():
+    world = CollisionWorld(single_wall())
+    end, hit = world.sweep((0.5, 5.0), (-1.0, 5.0))
+    assert hit and end[0] == pytest.approx(AGENT_LENGTH / 2, abs=1e-5) and end[0] >= AGENT_LENGTH / 2
+
+
+def test_sweep_free_and_grazing():
+    world = CollisionWorld(single_wall())
+    end, hit = world.sweep((1.0, 5.0), (2.0, 6.0))
+    assert not hit and np.array_equal(end, [2.0, 6.0])
+    # parallel to the wall at exactly the radius: touching is allowed, not a collision of the path
+    end, hit = world.sweep((2.95 - 0.1 - 1e-9, 2.0), (2.95 - 0.1 - 1e-9, 3.0))
+    assert not hit
+    # around the end of the wall (x in [2.95, 3.05], y <= 10): a disc passing the corner by 1 mm
+    end, hit = world.sweep((2.0, 10.101), (4.0, 10.101))
+    assert not hit
+    end, hit = world.sweep((2.0, 10.099), (4.0, 10.099))
+    assert hit and distance_to_solids(single_wall(), end[None])[0] >= AGENT_LENGTH / 2 - 1e-9
+    # a zero-length move never collides
+    end, hit = world.sweep((1.0, 1.0), (1.0, 1.0))
+    assert not hit and np.array_equal(end, [1.0, 1.0])
+
+
+@pytest.mark.parametrize("name", ["rooms", "house-1"])
+def test_random_walk_never_overlaps(name):
+    level = _level(name)
+    rng = np.random.default_rng(7)
+    sim = Simulator(level, "high", seed=3, intrinsics=None)
+    starts = sample_free_points(level, rng, 400, 1.2 * AGENT_LENGTH)
+    n_start = 0
+    sim.reset((*starts[0], 0.0))
+    poses = np.empty((10_000, 3))
+    collisions = 0
+    for k in range(10_000):
+        if sim.collided:
+            collisions += 1
+            n_start += 1
+            sim.reset((*starts[n_start % len(starts)], rng.uniform(-math.pi, math.pi)))
+        u = Control(rng.uniform(-MAX_TURN, MAX_TURN), sim.pose[2] + rng.uniform(-0.1, 0.1),
+                    rng.uniform(0, MAX_STEP) if rng.random() < 0.9 else 0.0)
+        poses[k] = sim.step(u).pose
+    d = distance_to_solids(level, poses[:, :2])
+    assert d.min() >= AGENT_LENGTH / 2 - 1e-6
+    assert collisions >= 10  # the walk did hit things
+    assert np.all((poses[:, 0] >= AGENT_LENGTH / 2 - 1e-6) & (poses[:, 0] <= level.width - AGENT_LENGTH / 2 + 1e-6))
+
+
+def _run(sim, controls, pose):
+    sim.reset(pose)
+    return np.array([sim.step(u).pose for u in controls]), [sim.step(controls[0]).eps]
+
+
+def test_same_seed_same_trajectory_and_aligned_stream():
+    level = rooms()
+    rng = np.random.default_rng(0)
+    controls = [Control(rng.uniform(-0.2, 0.2), 0.0, rng.uniform(0, 0.16)) for _ in range(50)]
+    a = Simulator(level, "mid", seed=42, intrinsics=None)
+    b = Simulator(level, "mid", seed=42, intrinsics=None)
+    c = Simulator(level, "mid", seed=43, intrinsics=None)
+    pa = [a.reset((1.0, 1.0, 0.5))] and [a.step(u) for u in controls]
+    pb = [b.reset((1.0, 1.0, 0.5))] and [b.step(u) for u in controls]
+    pc = [c.reset((1.0, 1.0, 0.5))] and [c.step(u) for u in controls]
+    assert all(np.array_equal(x.pose, y.pose) and x.eps == y.eps for x, y in zip(pa, pb))
+    assert not all(np.array_equal(x.pose, y.pose) for x, y in zip(pa, pc))
+    # different controls (standing still) draw the same noise stream
+    d = Simulator(level, "mid", seed=42, intrinsics=None)
+    d.reset((1.0, 1.0, 0.5))
+    pd = [d.step(Control(0.0, 0.5, 0.0)) for _ in controls]
+    assert [x.eps for x in pd] == [x.eps for x in pa]
+    assert all(np.array_equal(x.pose, [1.0, 1.0, 0.5]) for x in pd)
+    # reset with a seed restarts the stream
+    a.reset((1.0, 1.0, 0.5), seed=42)
+    assert a.step(controls[0]).eps == pa[0].eps
+
+
+def test_controls_are_clipped():
+    sim = Simulator(rooms(), "none", intrinsics=None)
+    sim.reset((1.0, 3.0, 0.0))
+    res = sim.step(Control(1.0, 1.0, 5.0))
+    th = MAX_TURN
+    off = math.radians(5)
+    np.testing.assert_allclose(res.pose, [1.0 + MAX_STEP * math.cos(off), 3.0 + MAX_STEP * math.sin(off), th],
+                               atol=1e-12)
+    assert sim.last_control.speed == MAX_STEP
+
+
+def test_simulator_frames_and_errors():
+    level = rooms()
+    sim = Simulator(level, "low", seed=1, intrinsics=HALF_CAMERA)
+    f = sim.reset((1.0, 1.0, 0.0))
+    assert f.depth.shape == (120, 160) and f.valid.all()
+    res = sim.step(Control(0.1, 0.0, 0.1))
+    assert res.frame is not None and res.frame.rgb.shape == (120, 160, 3)
+    with pytest.raises(TaskError):
+        sim.reset((1.75, 1.75, 0.0))  # inside the pillar
+    with pytest.raises(TaskError):
+        sim.reset((1.0, 2.0))
+
+
+def test_sample_free_points_clearance():
+    level = rooms()
+    pts = sample_free_points(level, np.random.default_rng(1), 300, 0.24)
+    assert pts.shape == (300, 2) and distance_to_solids(level, pts).min() >= 0.24
+    with pytest.raises(TaskError):
+        sample_free_points(level, np.random.default_rng(1), 5, 10.0)
