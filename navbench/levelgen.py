@@ -72,6 +72,9 @@ DEFAULT_SIZE = 11.4
 #: Default maze size (m) and cell pitch (m).
 MAZE_SIZE = 9.7
 MAZE_CELL = 1.2
+#: Margin (m) between a HouseExpo outline and the level box: room for a wall end extended by
+#: half a thickness along a diagonal edge (t / 2 * sqrt 2 < 0.08).
+HOUSEEXPO_MARGIN = 0.08
 #: The smallest fraction of the house area that must be free at the planning clearance.
 MIN_FREE_FRACTION = 0.2
 
@@ -994,26 +997,30 @@ def level_from_houseexpo(doc: Any, name: str, seed: int, size: float = DEFAULT_S
 
     ``doc`` keys: ``verts`` (the house outline, ``[[x, y], ...]`` metres), ``bbox``
     (``{"min": [x, y], "max": [x, y]}``); others are ignored. The outline is translated so
-    ``bbox.min`` lands at the wall half-thickness and scaled uniformly so its longer side spans
-    ``size - 0.1`` m (the walls then fill the box exactly). One wall per outline edge; the outside
-    is filled (:func:`exterior_fill`); ``obstacles`` free-standing furniture obstacles are placed
-    inside with :data:`OBSTACLE_GAP` to every wall. Malformed documents raise
-    :class:`LevelError` naming the field.
+    ``bbox.min`` lands at ``(m, m)`` with the margin ``m`` = :data:`HOUSEEXPO_MARGIN` and scaled
+    uniformly (aspect kept) so that its longer side spans ``size - 2 m``: the level box is the
+    outline's box plus the margin, which holds the walls (one per outline edge, extended by half
+    a thickness at both ends to close the corners). The outside of the outline is filled
+    (:func:`exterior_fill`); ``obstacles`` free-standing furniture obstacles are placed inside
+    with :data:`OBSTACLE_GAP` to every wall. Malformed documents raise :class:`LevelError`
+    naming the field.
     """
     _check_name_seed(name, seed)
     pts, bmin, bmax = _parse_houseexpo(doc)
+    if not (isinstance(size, (int, float)) and math.isfinite(size) and 3.0 <= size <= 30.0):
+        raise ConfigError(f"size must be between 3 and 30 m, got {size!r}")
     if not (isinstance(obstacles, int) and 0 <= obstacles <= 40):
         raise ConfigError(f"obstacles must be an integer in [0, 40], got {obstacles!r}")
-    t2 = WALL_THICKNESS / 2
-    scale = (size - WALL_THICKNESS) / float((bmax - bmin).max())
-    P = [(_q((x - bmin[0]) * scale + t2), _q((y - bmin[1]) * scale + t2)) for x, y in pts]
-    # drop vertices made collinear or duplicate by rounding
+    m = HOUSEEXPO_MARGIN
+    scale = (size - 2 * m) / float((bmax - bmin).max())
+    P = [(_q((x - bmin[0]) * scale + m), _q((y - bmin[1]) * scale + m)) for x, y in pts]
+    # drop vertices made duplicate by rounding
     P = [p for k, p in enumerate(P) if p != P[k - 1]]
     poly = np.asarray(_ccw_tuple(P), float)
-    width = _q((bmax[0] - bmin[0]) * scale + WALL_THICKNESS)
-    depth = _q((bmax[1] - bmin[1]) * scale + WALL_THICKNESS)
-    poly[:, 0] = np.clip(poly[:, 0], t2, width - t2)
-    poly[:, 1] = np.clip(poly[:, 1], t2, depth - t2)
+    width = _q((bmax[0] - bmin[0]) * scale + 2 * m)
+    depth = _q((bmax[1] - bmin[1]) * scale + 2 * m)
+    poly[:, 0] = np.clip(poly[:, 0], m, width - m)
+    poly[:, 1] = np.clip(poly[:, 1], m, depth - m)
     fill = exterior_fill(poly, width, depth)
     return _retry(lambda rng, k: _houseexpo_attempt(rng, name, seed, poly, width, depth, fill,
                                                     float(size), scale, obstacles, doc, k),
