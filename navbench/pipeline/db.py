@@ -370,11 +370,13 @@ def _task_fields(task: Any) -> tuple[int, tuple, tuple, float]:
 class ResultsDB:
     """The results database at ``url`` (None: ``$NAVBENCH_DB`` or ``sqlite:///results/navbench.db``).
 
-    Tables are created on first use. Raises :class:`DatabaseError` (one line) when the URL is
+    Tables are created on first use (``create=False``: a missing SQLite file is an error
+    instead, for read-only commands). Raises :class:`DatabaseError` (one line) when the URL is
     invalid or the server cannot be reached.
     """
 
-    def __init__(self, url: str | None = None):
+    def __init__(self, url: str | None = None, create: bool = True):
+        # create=False (read-only commands): a missing SQLite file is an error, not a new database.
         self.url = resolve_db_url(url)
         try:
             parsed = make_url(self.url)
@@ -385,6 +387,9 @@ class ResultsDB:
         if parsed.get_backend_name() == "sqlite":
             database = parsed.database
             if database and database != ":memory:" and not database.startswith("file:"):
+                if not create and not Path(database).expanduser().is_file():
+                    raise DatabaseError(f"no results database at {database}; "
+                                        "run `navbench all` (or pass --db / set NAVBENCH_DB)")
                 try:
                     Path(database).expanduser().parent.mkdir(parents=True, exist_ok=True)
                 except OSError as e:
@@ -666,6 +671,14 @@ class ResultsDB:
         return self._frame(select(BenchRow.__table__).order_by(BenchRow.id))
 
     # -- frames ---------------------------------------------------------------------------------
+
+    def table_counts(self) -> dict[str, int]:
+        """Number of rows in every table, by table name."""
+        from sqlalchemy import func
+
+        with self._begin() as conn:
+            return {t.name: int(conn.execute(select(func.count()).select_from(t)).scalar())
+                    for t in Base.metadata.sorted_tables}
 
     def _frame(self, stmt) -> "pandas.DataFrame":
         import pandas as pd

@@ -265,3 +265,11 @@ def test_generic_insert_fallback_ignores_duplicates(db):
         assert db._insert_ignore(conn, EpisodeRow, rows, ("cell_key", "task_id", "seed"),
                                  dialect="generic") == 2
     assert sorted(db.episodes_frame()["task_id"]) == [0, 1, 2]
+
+
+def test_read_only_open_of_a_missing_sqlite_file(tmp_path):
+    with pytest.raises(DatabaseError, match="no results database"):
+        ResultsDB(f"sqlite:///{tmp_path / 'missing.db'}", create=False)
+    assert not (tmp_path / "missing.db").exists()
+    ResultsDB(f"sqlite:///{tmp_path / 'made.db'}").close()
+    ResultsDB(f"sqlite:///{tmp_path / 'made.db'}", create=False).close()

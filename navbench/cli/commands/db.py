@@ -1,0 +1,61 @@
+"""``navbench db``: where the results database is, what it holds, and its runs."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console
+
+db_app = typer.Typer(help="Inspect the results database.", no_args_is_help=True)
+
+_DB_OPTION = typer.Option(None, "--db", envvar="NAVBENCH_DB",
+                          help="Results database URL [default: sqlite:///results/navbench.db].")
+
+
+@db_app.command("info")
+def info(db: str = _DB_OPTION):
+    """Show the database URL (password hidden) and the number of rows per table."""
+    from rich.table import Table
+
+    from navbench.pipeline.db import ResultsDB
+
+    with ResultsDB(db, create=False) as rdb:
+        counts = rdb.table_counts()
+        url = rdb.display_url
+    table = Table(title=url)
+    table.add_column("table")
+    table.add_column("rows", justify="right")
+    for name, n in counts.items():
+        table.add_row(name, str(n))
+    console.print(table)
+
+
+@db_app.command("runs")
+def runs(
+    last: int = typer.Option(20, "--last", min=1, help="Show the N most recent runs."),
+    db: str = _DB_OPTION,
+):
+    """List runs: id, profile, command, status, start, duration, git commit, host."""
+    from rich.table import Table
+
+    from navbench.pipeline.db import ResultsDB
+
+    with ResultsDB(db, create=False) as rdb:
+        frame = rdb.runs_frame().tail(last)
+        episodes = rdb.episodes_frame()
+    per_run = episodes.groupby("run_id").size() if not episodes.empty else {}
+    table = Table(title=f"{len(frame)} most recent runs")
+    for col in ("id", "profile", "command", "status", "started (UTC)", "seconds", "episodes",
+                "commit", "host"):
+        table.add_column(col, justify="right" if col in ("id", "seconds", "episodes") else "left")
+    for _, r in frame.iterrows():
+        secs = "" if r["finished"] is None or r["finished"] != r["finished"] else \
+            f"{(r['finished'] - r['started']).total_seconds():.0f}"
+        table.add_row(str(r["id"]), r["profile"], r["command"], r["status"],
+                      r["started"].strftime("%Y-%m-%d %H:%M:%S"), secs,
+                      str(int(per_run.get(r["id"], 0))), (r["git_commit"] or "")[:10], r["host"])
+    console.print(table)
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(db_app, name="db")

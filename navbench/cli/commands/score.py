@@ -1,0 +1,77 @@
+"""``navbench score``: success rate, SPL, RMSE and step time per (level, estimator, noise)."""
+
+from __future__ import annotations
+
+from enum import Enum
+
+import typer
+
+from navbench.cli._common import console, parse_list
+
+
+class Format(str, Enum):
+    table = "table"
+    csv = "csv"
+    json = "json"
+
+
+def _fmt(value: float, ci_low: float, ci_high: float, digits: int) -> str:
+    if value != value:  # NaN
+        return "-"
+    return f"{value:.{digits}f} [{ci_low:.{digits}f}, {ci_high:.{digits}f}]"
+
+
+def score(
+    run: str = typer.Option("all", "--run", help="A run id, 'latest' (the newest run that stored "
+                            "episodes) or 'all' (every stored episode, once per cell/task/seed)."),
+    level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
+    fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
+    boot: int = typer.Option(2000, "--boot", min=1, help="Bootstrap resamples for the 95% intervals."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
+    db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
+                           help="Results database URL [default: sqlite:///results/navbench.db]."),
+):
+    """Score the stored navigation episodes offline, with bootstrap 95% intervals.
+
+    One row per (level, estimator, noise) and pooled rows with level 'all'. Every stored episode
+    counts once (episodes are unique per cell, task and seed); --run narrows to one run.
+    """
+    import sys
+
+    from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.score import score_table, table_records
+
+    with ResultsDB(db, create=False) as rdb:
+        table = score_table(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
+    if fmt is Format.json:
+        from navbench.cli._common import print_json
+
+        print_json(table_records(table))
+        return
+    if fmt is Format.csv:
+        table.to_csv(sys.stdout, index=False, float_format="%.6g")
+        return
+    from rich.table import Table
+
+    out = Table(title=f"navbench score ({run}): mean or median [95% bootstrap interval]")
+    for col, just in (("level", "left"), ("estimator", "left"), ("noise", "left"), ("n", "right"),
+                      ("success", "right"), ("SPL", "right"), ("loc RMSE m", "right"),
+                      ("rot RMSE deg", "right"), ("step ms", "right"), ("Hz", "right")):
+        out.add_column(col, justify=just)
+    previous = None
+    for _, r in table.iterrows():
+        if previous is not None and r["level"] != previous:
+            out.add_section()
+        previous = r["level"]
+        hz = "-" if r["step_hz"] != r["step_hz"] else f"{r['step_hz']:.1f}"
+        out.add_row(r["level"], r["estimator"], r["noise"], str(r["episodes"]),
+                    _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
+                    _fmt(r["spl"], r["spl_ci_low"], r["spl_ci_high"], 2),
+                    _fmt(r["loc_rmse_m"], r["loc_rmse_m_ci_low"], r["loc_rmse_m_ci_high"], 3),
+                    _fmt(r["rot_rmse_deg"], r["rot_rmse_deg_ci_low"], r["rot_rmse_deg_ci_high"], 2),
+                    _fmt(r["step_ms"], r["step_ms_ci_low"], r["step_ms_ci_high"], 1), hz)
+    console.print(out)
+
+
+def register(app: typer.Typer) -> None:
+    app.command("score")(score)

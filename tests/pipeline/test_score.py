@@ -1,0 +1,204 @@
+"""Offline scoring: exact point estimates on hand-made episodes, bootstrap intervals, the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from navbench.errors import DatabaseError
+from navbench.pipeline.db import ResultsDB
+from navbench.pipeline.score import bootstrap_ci, score_table, spl_matrix, summarise
+
+from .test_db import episode
+
+
+@pytest.fixture
+def db(tmp_path):
+    d = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    yield d
+    d.close()
+
+
+def _fill(db):
+    """Two levels, 'ours' and 'dynamics' at low noise; hand-chosen values (see the asserts)."""
+    r1 = db.start_run("quick", "run-navigation", {}, "a")
+    rows = [
+        # level l1, ours: success 1,1,0,1 ; spl .9,.8,0,.7 ; loc .01,.03,.5,.02 ; step 10,20,30,40
+        episode("c1", 0, level="l1", success=True, spl_term=0.9, loc_rmse_m=0.01, rot_rmse_deg=1.0, step_ms=10.0),
+        episode("c1", 1, level="l1", success=True, spl_term=0.8, loc_rmse_m=0.03, rot_rmse_deg=2.0, step_ms=20.0),
+        episode("c1", 2, level="l1", success=False, spl_term=0.0, loc_rmse_m=0.5, rot_rmse_deg=9.0, step_ms=30.0),
+        episode("c1", 3, level="l1", success=True, spl_term=0.7, loc_rmse_m=0.02, rot_rmse_deg=3.0, step_ms=40.0),
+        # level l2, ours: success 1,0 ; spl .6, 0 ; loc .04, nan (no estimate recorded)
+        episode("c2", 0, level="l2", success=True, spl_term=0.6, loc_rmse_m=0.04, rot_rmse_deg=4.0, step_ms=50.0),
+        episode("c2", 1, level="l2", success=False, spl_term=0.0, loc_rmse_m=float("nan"), rot_rmse_deg=5.0, step_ms=60.0),
+        # level l1, dynamics
+        episode("c3", 0, level="l1", estimator="dynamics", success=False, spl_term=0.0, step_ms=1.0),
+    ]
+    db.add_episodes(r1, rows)
+    r2 = db.start_run("quick", "run-navigation", {}, "b")
+    db.add_episodes(r2, [episode("c4", 0, level="l1", noise="high", success=True, spl_term=0.5)])
+    return r1, r2
+
+
+def _row(table, level, estimator="ours", noise="low"):
+    sel = table[(table["level"] == level) & (table["estimator"] == estimator) & (table["noise"] == noise)]
+    assert len(sel) == 1
+    return sel.iloc[0]
+
+
+def test_point_estimates_exact(db):
+    _fill(db)
+    t = score_table(db, n_boot=200)
+    l1 = _row(t, "l1")
+    assert l1["episodes"] == 4
+    assert l1["success_rate"] == pytest.approx(0.75)
+    assert l1["spl"] == pytest.approx((0.9 + 0.8 + 0.0 + 0.7) / 4)
+    assert l1["loc_rmse_m"] == pytest.approx(0.025)  # median of .01 .02 .03 .5
+    assert l1["rot_rmse_deg"] == pytest.approx(2.5)
+    assert l1["step_ms"] == pytest.approx(25.0) and l1["step_hz"] == pytest.approx(40.0)
+    l2 = _row(t, "l2")
+    assert l2["loc_rmse_m"] == pytest.approx(0.04)  # the NaN is left out
+    pooled = _row(t, "all")
+    assert pooled["episodes"] == 6
+    assert pooled["success_rate"] == pytest.approx(4 / 6)
+    assert pooled["spl"] == pytest.approx(3.0 / 6)
+    assert pooled["loc_rmse_m"] == pytest.approx(0.03)  # median of .01 .02 .03 .04 .5
+    assert pooled["step_ms"] == pytest.approx(35.0)
+    assert _row(t, "all", "dynamics")["spl"] == 0.0
+    # ordering: levels alphabetically, "all" last; within a level noise low before high
+    assert list(t["level"]) == ["l1", "l1", "l1", "l2", "all", "all", "all"]
+    assert list(t[t["level"] == "l1"]["noise"]) == ["low", "low", "high"]
+    for _, r in t.iterrows():  # every interval contains its point estimate
+        for m in ("success_rate", "spl", "step_ms"):
+            assert r[f"{m}_ci_low"] <= r[m] + 1e-12 and r[m] <= r[f"{m}_ci_high"] + 1e-12
+
+
+def test_run_and_level_selection(db):
+    r1, r2 = _fill(db)
+    assert set(score_table(db, run=r2, n_boot=50)["noise"]) == {"high"}
+    assert set(score_table(db, run="latest", n_boot=50)["noise"]) == {"high"}
+    assert score_table(db, run=str(r1), n_boot=50)["episodes"].max() == 6
+    t = score_table(db, level="l2", n_boot=50)
+    assert set(t["level"]) == {"l2", "all"} and _row(t, "all")["episodes"] == 2
+    assert set(score_table(db, level=["l1", "l2"], n_boot=50)["level"]) == {"l1", "l2", "all"}
+    with pytest.raises(DatabaseError):
+        score_table(db, run=999)
+    with pytest.raises(DatabaseError):
+        score_table(db, run="yesterday")
+    with pytest.raises(DatabaseError):
+        score_table(db, level="nowhere")
+
+
+def test_empty_database_is_a_user_error(db):
+    with pytest.raises(DatabaseError, match="no episodes"):
+        score_table(db)
+    with pytest.raises(DatabaseError, match="no episodes"):
+        score_table(db, run="latest")
+
+
+def test_option_sets_become_variants(db):
+    rid = db.start_run("quick", "run-navigation", {}, "a")
+    db.add_episodes(rid, [episode("a", 0, estimator_options={"steps": 50}, spl_term=0.2),
+                          episode("b", 0, estimator_options={"steps": 100}, spl_term=0.4),
+                          episode("c", 0, estimator="dynamics", estimator_options={})])
+    t = score_table(db, n_boot=20)
+    assert set(t["estimator"]) == {"ours{steps=50}", "ours{steps=100}", "dynamics"}
+    assert _row(t, "l1", "ours{steps=100}")["spl"] == pytest.approx(0.4)
+
+
+def test_bootstrap_degenerate_and_two_point_cases():
+    assert bootstrap_ci([0.7] * 10, np.mean, n=500, seed=1) == (pytest.approx(0.7), pytest.approx(0.7))
+    assert bootstrap_ci([3.0], "median", n=100, seed=0) == (3.0, 3.0)
+    # Two values {0, 1}: resampled means are 0, .5, 1 with probabilities 1/4, 1/2, 1/4, so the
+    # 2.5 % and 97.5 % quantiles of 2000 resamples are exactly 0 and 1.
+    assert bootstrap_ci([0.0, 1.0], np.mean, n=2000, seed=0) == (0.0, 1.0)
+    low, high = bootstrap_ci([np.nan, np.nan], np.mean)
+    assert np.isnan(low) and np.isnan(high)
+    low, high = bootstrap_ci([], np.median)
+    assert np.isnan(low) and np.isnan(high)
+
+
+def test_bootstrap_contains_point_is_seeded_and_matches_a_reference_loop():
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=37)
+    for stat in (np.mean, np.median):
+        low, high = bootstrap_ci(x, stat, n=1000, seed=3)
+        assert low < stat(x) < high
+        assert bootstrap_ci(x, stat, n=1000, seed=3) == (low, high)
+        assert bootstrap_ci(x, stat, n=1000, seed=4) != (low, high)
+    # the vectorised version equals a plain loop over the same index draws
+    ref_rng = np.random.default_rng(11)
+    idx = ref_rng.integers(0, x.size, size=(300, x.size))
+    ref = np.quantile([np.mean(x[i]) for i in idx], [0.025, 0.975])
+    assert bootstrap_ci(x, np.mean, n=300, seed=11) == (pytest.approx(ref[0]), pytest.approx(ref[1]))
+    # a 90 % interval lies inside the 95 % one
+    lo90, hi90 = bootstrap_ci(x, np.mean, n=1000, seed=3, level=0.90)
+    lo95, hi95 = bootstrap_ci(x, np.mean, n=1000, seed=3)
+    assert lo95 <= lo90 and hi90 <= hi95
+
+
+def test_spl_matrix_layout(db):
+    _fill(db)
+    m = spl_matrix(score_table(db, n_boot=100))
+    assert list(m.index) == ["high", "low"] and list(m.columns) == ["ours", "dynamics"]
+    assert m.loc["low", "ours"].startswith("0.50 [")
+    assert m.loc["high", "dynamics"] == ""
+
+
+def test_summarise_empty_frame_has_columns():
+    import pandas as pd
+
+    t = summarise(pd.DataFrame())
+    assert len(t) == 0 and {"spl_ci_low", "step_hz"} <= set(t.columns)
+
+
+def test_cli_json_csv_table(db, tmp_path):
+    from navbench.cli.main import app
+
+    _fill(db)
+    url = db.url
+    runner = CliRunner()
+    res = runner.invoke(app, ["score", "--format", "json", "--db", url, "--boot", "100"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert isinstance(data, list) and len(data) == 7
+    need = {"level", "estimator", "noise", "episodes", "success_rate", "spl", "spl_ci_low",
+            "spl_ci_high", "loc_rmse_m", "rot_rmse_deg", "step_ms"}
+    assert all(need <= set(d) for d in data)
+    pooled = [d for d in data if d["level"] == "all" and d["estimator"] == "ours" and d["noise"] == "low"]
+    assert pooled[0]["spl"] == pytest.approx(0.5) and pooled[0]["episodes"] == 6
+    res = runner.invoke(app, ["score", "--format", "csv", "--db", url, "--level", "l2", "--boot", "50"])
+    assert res.exit_code == 0
+    lines = res.stdout.strip().splitlines()
+    assert lines[0].startswith("level,estimator,noise,episodes,success_rate") and len(lines) == 3
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--run", "latest"])
+    assert res.exit_code == 0 and "high" in res.stdout and "SPL" in res.stdout
+
+
+def test_cli_errors_are_one_line(tmp_path):
+    from navbench.cli.main import main
+
+    import subprocess
+    import sys
+
+    empty = f"sqlite:///{tmp_path / 'empty.db'}"
+    for args in (["score", "--db", empty], ["score", "--db", "nosuch://x"]):
+        proc = subprocess.run([sys.executable, "-m", "navbench.cli.main", *args],
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 2, proc.stderr
+        assert proc.stderr.strip().startswith("error:") and len(proc.stderr.strip().splitlines()) == 1
+    assert callable(main)
+
+
+def test_cli_db_info_and_runs(db):
+    from navbench.cli.main import app
+
+    _fill(db)
+    runner = CliRunner()
+    res = runner.invoke(app, ["db", "info", "--db", db.url])
+    assert res.exit_code == 0 and "episodes" in res.stdout and "8" in res.stdout
+    res = runner.invoke(app, ["db", "runs", "--db", db.url])
+    assert res.exit_code == 0 and "quick" in res.stdout and "2 most recent runs" in res.stdout
