@@ -1,0 +1,1 @@
+"""Planning: exact shortest paths for the task set, A* on the world model, task sampling."""

@@ -1,0 +1,248 @@
+"""Navigation tasks (paper section 5, appendix D): sampling, and the task-set file format.
+
+A task is a start pose and a target position sampled uniformly in the free space of the TRUE
+geometry, both at least ``1.2 L`` from every solid, farther apart than ``3 L``, with the target
+reachable from the start for the agent's disc (radius ``L / 2``). ``optimal_length`` is the
+exact shortest feasible path (:mod:`navbench.plan.shortest`), the ``l_i`` of SPL.
+
+Task file (``tasks/<level>-<count>-<hash8>.json``, ``hash8`` the first 8 hex digits of the
+sha256 of the file text)::
+
+    {"format": "navbench-tasks", "version": 1, "level": "house-1",
+     "level_sha256": "<sha256 of the level file text>", "seed": 0, "count": 200,
+     "agent_length": 0.2, "units": "metres, radians",
+     "tasks": [{"id": 0, "start_x": .., "start_y": .., "start_heading": ..,
+                "target_x": .., "target_y": .., "optimal_length": ..}, ...]}
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from navbench.errors import TaskError
+from navbench.geometry import AGENT_LENGTH, AGENT_RADIUS
+
+TASK_FORMAT = "navbench-tasks"
+TASK_VERSION = 1
+#: Minimum clearance (m) of start and target from every solid: 1.2 L.
+MIN_CLEARANCE = 1.2 * AGENT_LENGTH
+#: Start and target must be farther apart than this (m): 3 L.
+MIN_SEPARATION = 3.0 * AGENT_LENGTH
+_FIELDS = ("id", "start_x", "start_y", "start_heading", "target_x", "target_y", "optimal_length")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One navigation task. ``start = (x, y, theta)`` (m, m, rad), ``target = (x, y)`` (m),
+    ``optimal_length`` the shortest feasible path length (m) for the agent's disc."""
+
+    id: int
+    start: tuple[float, float, float]
+    target: tuple[float, float]
+    optimal_length: float
+
+
+@dataclass(frozen=True)
+class TaskSet:
+    """A task file's content: the level it belongs to, how it was sampled, and its tasks."""
+
+    level: str
+    level_sha256: str
+    seed: int | None
+    tasks: tuple[Task, ...]
+
+    @property
+    def count(self) -> int:
+        return len(self.tasks)
+
+
+def level_sha256(level_text: str) -> str:
+    """sha256 hex digest of a level file's text."""
+    return hashlib.sha256(level_text.encode()).hexdigest()
+
+
+def _free_points(level, rng: np.random.Generator, min_clearance: float, batch: int = 256):
+    """Endless stream of points uniform in the level box with clearance >= ``min_clearance``."""
+    from navbench.level import distance_to_solids, prisms
+
+    pr = prisms(level)
+    lo = np.array([min_clearance, min_clearance])
+    hi = np.array([level.width - min_clearance, level.depth - min_clearance])
+    if np.any(hi <= lo):
+        raise TaskError(f"level {level.name!r} is too small for tasks")
+    tries = 0
+    while True:
+        pts = lo + rng.random((batch, 2)) * (hi - lo)
+        ok = distance_to_solids(pr, pts) >= min_clearance
+        tries += batch
+        if tries > 200_000 and not ok.any():
+            raise TaskError(f"level {level.name!r} has no free space with {min_clearance:g} m clearance")
+        yield from pts[ok]
+
+
+def sample_tasks(level, count: int = 200, seed: int = 0, min_clearance: float = MIN_CLEARANCE,
+                 min_separation: float = MIN_SEPARATION, radius: float = AGENT_RADIUS,
+                 max_tries: int = 100_000) -> list[Task]:
+    """Sample ``count`` tasks in ``level`` (TRUE geometry), deterministic in ``seed``.
+
+    Start and target are drawn uniformly in the level box among points with clearance
+    ``>= min_clearance`` (m, exact :func:`navbench.level.distance_to_solids`); a pair is kept when
+    the points are farther apart than ``min_separation`` (m) and the target is reachable for a
+    disc of ``radius`` (m); the start heading is uniform in ``[-pi, pi)``. Rejected pairs are
+    redrawn (this is rejection sampling, so the kept pairs stay uniform given the constraints).
+    """
+    from navbench.plan.shortest import graph_for_level, shortest_path
+
+    if count < 0:
+        raise TaskError(f"count must be >= 0, got {count}")
+    rng = np.random.default_rng(seed)
+    graph = graph_for_level(level, radius)
+    points = _free_points(level, rng, min_clearance)
+    tasks: list[Task] = []
+    tries = 0
+    while len(tasks) < count:
+        tries += 1
+        if tries > max_tries:
+            raise TaskError(f"could not sample {count} tasks in {level.name!r} after {max_tries} tries")
+        s, t = next(points), next(points)
+        heading = float(rng.uniform(-math.pi, math.pi))
+        if np.linalg.norm(t - s) <= min_separation:
+            continue
+        try:
+            length, _ = shortest_path(graph, s, t)
+        except TaskError:
+            continue  # unreachable (another component) or not free for the disc
+        tasks.append(Task(len(tasks), (float(s[0]), float(s[1]), heading),
+                          (float(t[0]), float(t[1])), float(length)))
+    return tasks
+
+
+# ----------------------------------------------------------------------------- file format
+
+def _r(x: float, nd: int = 6) -> float:
+    v = round(float(x), nd)
+    return 0.0 if v == 0 else v
+
+
+def dumps_tasks(level_name: str, tasks, level_hash: str = "", seed: int | None = None) -> str:
+    """The deterministic JSON text of a task file (numbers rounded to 1e-6)."""
+    doc = {
+        "format": TASK_FORMAT,
+        "version": TASK_VERSION,
+        "level": level_name,
+        "level_sha256": level_hash,
+        "seed": seed,
+        "count": len(tasks),
+        "agent_length": AGENT_LENGTH,
+        "units": "metres, radians",
+        "tasks": [
+            {"id": int(t.id), "start_x": _r(t.start[0]), "start_y": _r(t.start[1]),
+             "start_heading": _r(t.start[2]), "target_x": _r(t.target[0]),
+             "target_y": _r(t.target[1]), "optimal_length": _r(t.optimal_length)}
+            for t in tasks
+        ],
+    }
+    return json.dumps(doc, indent=1) + "\n"
+
+
+def task_file_name(level_name: str, count: int, text: str) -> str:
+    """``<level>-<count>-<hash8>.json`` with ``hash8`` from the sha256 of the file ``text``."""
+    return f"{level_name}-{count}-{hashlib.sha256(text.encode()).hexdigest()[:8]}.json"
+
+
+def save_tasks(path, level_name: str, tasks, level_hash: str = "", seed: int | None = None) -> Path:
+    """Write a task file. ``path`` is a directory (the file is named by :func:`task_file_name`)
+    or a file path. Returns the written path."""
+    text = dumps_tasks(level_name, tasks, level_hash, seed)
+    path = Path(path)
+    if path.is_dir() or path.suffix == "":
+        path = path / task_file_name(level_name, len(tasks), text)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    return path
+
+
+def _num(x, where: str, source: str) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+        raise TaskError(f"{source}: {where}: expected a finite number, got {x!r}")
+    return float(x)
+
+
+def task_set_from_dict(doc, source: str = "<tasks>") -> TaskSet:
+    """Validate a task document; :class:`TaskError` names the bad field."""
+    if not isinstance(doc, dict):
+        raise TaskError(f"{source}: expected a JSON object")
+    if doc.get("format") != TASK_FORMAT:
+        raise TaskError(f"{source}: format: expected {TASK_FORMAT!r}, got {doc.get('format')!r}")
+    if doc.get("version") != TASK_VERSION:
+        raise TaskError(f"{source}: version: unknown version {doc.get('version')!r} (this navbench reads {TASK_VERSION})")
+    level = doc.get("level")
+    if not isinstance(level, str) or not level:
+        raise TaskError(f"{source}: level: expected a non-empty string")
+    lh = doc.get("level_sha256", "")
+    if not isinstance(lh, str):
+        raise TaskError(f"{source}: level_sha256: expected a string")
+    seed = doc.get("seed")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+        raise TaskError(f"{source}: seed: expected an integer or null, got {seed!r}")
+    raw = doc.get("tasks")
+    if not isinstance(raw, list):
+        raise TaskError(f"{source}: tasks: expected a list")
+    tasks = []
+    ids = set()
+    for i, t in enumerate(raw):
+        where = f"tasks[{i}]"
+        if not isinstance(t, dict):
+            raise TaskError(f"{source}: {where}: expected an object")
+        for f in _FIELDS:
+            if f not in t:
+                raise TaskError(f"{source}: {where}.{f}: missing field")
+        tid = t["id"]
+        if isinstance(tid, bool) or not isinstance(tid, int) or tid < 0:
+            raise TaskError(f"{source}: {where}.id: expected a non-negative integer, got {tid!r}")
+        if tid in ids:
+            raise TaskError(f"{source}: {where}.id: duplicate task id {tid}")
+        ids.add(tid)
+        v = {f: _num(t[f], f"{where}.{f}", source) for f in _FIELDS[1:]}
+        if v["optimal_length"] <= 0:
+            raise TaskError(f"{source}: {where}.optimal_length: expected a positive length, got {v['optimal_length']}")
+        tasks.append(Task(tid, (v["start_x"], v["start_y"], v["start_heading"]),
+                          (v["target_x"], v["target_y"]), v["optimal_length"]))
+    count = doc.get("count")
+    if count != len(tasks):
+        raise TaskError(f"{source}: count: says {count!r} but the file holds {len(tasks)} tasks")
+    return TaskSet(level, lh, seed, tuple(tasks))
+
+
+def read_task_file(path) -> TaskSet:
+    """Load and validate a task file with its metadata."""
+    path = Path(path)
+    if not path.is_file():
+        raise TaskError(f"{path}: no such task file")
+    try:
+        doc = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise TaskError(f"{path}: not valid JSON ({e})") from None
+    return task_set_from_dict(doc, str(path))
+
+
+def load_tasks(path) -> list[Task]:
+    """The tasks of a task file (validated; see :func:`read_task_file` for the metadata)."""
+    return list(read_task_file(path).tasks)
+
+
+def find_task_file(level_name: str, count: int | None = None, root=".") -> Path:
+    """The committed task file ``tasks/<level>-<count>-*.json`` (the newest if several)."""
+    pat = f"{level_name}-{count}-*.json" if count is not None else f"{level_name}-*.json"
+    hits = sorted((Path(root) / "tasks").glob(pat), key=lambda p: p.stat().st_mtime)
+    if not hits:
+        raise TaskError(f"no task file tasks/{pat}; run `navbench sample-tasks {level_name}`")
+    return hits[-1]
