@@ -72,6 +72,8 @@ DEFAULT_SIZE = 11.4
 #: Default maze size (m) and cell pitch (m).
 MAZE_SIZE = 9.7
 MAZE_CELL = 1.2
+#: Largest fraction of a house footprint that a cut-away corner room may take.
+MAX_CUTAWAY = 0.3
 #: Margin (m) between a HouseExpo outline and the level box: room for a wall end extended by
 #: half a thickness along a diagonal edge (t / 2 * sqrt 2 < 0.08).
 HOUSEEXPO_MARGIN = 0.08
@@ -341,6 +343,12 @@ def level_stats(level: Level, resolution: float = VALIDATION_RESOLUTION) -> dict
     }
 
 
+def validate_connectivity(level: Level, resolution: float = VALIDATION_RESOLUTION,
+                          clearance: float = CLEARANCE) -> None:
+    """Alias of :func:`validate_level` (the name in docs/ARCHITECTURE.md)."""
+    validate_level(level, resolution, clearance)
+
+
 def validate_level(level: Level, resolution: float = VALIDATION_RESOLUTION,
                    clearance: float = CLEARANCE) -> None:
     """Raise :class:`LevelError` unless the free space at ``clearance`` is one connected region.
@@ -376,19 +384,52 @@ def validate_level(level: Level, resolution: float = VALIDATION_RESOLUTION,
         return (min(max(int(x / resolution), 0), len(xs) - 1),
                 min(max(int(y / resolution), 0), len(ys) - 1))
 
-    for k, r in enumerate(level.meta.get("rooms", []) or []):
-        i0, j0 = cell(r[0], r[1])
-        i1, j1 = cell(r[2], r[3])
+    for k, (x0, y0, x1, y1) in enumerate(meta_rooms(level)):
+        i0, j0 = cell(x0, y0)
+        i1, j1 = cell(x1, y1)
         if not free[i0:i1 + 1, j0:j1 + 1].any():
             raise LevelError(f"level {level.name!r}: room {k} has no free space at "
                              f"{clearance:.2f} m clearance")
-    for k, d in enumerate(level.meta.get("doors", []) or []):
-        cx, cy = d["center"]
-        nxn, nyn = (1.0, 0.0) if d["axis"] == "x" else (0.0, 1.0)
+    for k, (cx, cy, axis) in enumerate(meta_doors(level)):
+        nxn, nyn = (1.0, 0.0) if axis == "x" else (0.0, 1.0)
         for s in (-0.4, 0.0, 0.4):
             if not free[cell(cx + s * nxn, cy + s * nyn)]:
                 raise LevelError(f"level {level.name!r}: door {k} at ({cx:.2f}, {cy:.2f}) does "
                                  f"not pass the agent at {clearance:.2f} m clearance")
+
+
+def _is_num(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def meta_rooms(level: Level) -> list[tuple[float, float, float, float]]:
+    """``meta["rooms"]`` as ``(x0, y0, x1, y1)`` rectangles (m); LevelError if malformed."""
+    rooms = level.meta.get("rooms") or []
+    if not isinstance(rooms, list):
+        raise LevelError(f"level {level.name!r}: meta.rooms: expected a list")
+    out = []
+    for k, r in enumerate(rooms):
+        if not (isinstance(r, list) and len(r) == 4 and all(_is_num(c) for c in r)):
+            raise LevelError(f"level {level.name!r}: meta.rooms[{k}]: expected [x0, y0, x1, y1]")
+        out.append(tuple(float(c) for c in r))
+    return out
+
+
+def meta_doors(level: Level) -> list[tuple[float, float, str]]:
+    """``meta["doors"]`` as ``(cx, cy, axis)``; LevelError if malformed."""
+    doors = level.meta.get("doors") or []
+    if not isinstance(doors, list):
+        raise LevelError(f"level {level.name!r}: meta.doors: expected a list")
+    out = []
+    for k, d in enumerate(doors):
+        c = d.get("center") if isinstance(d, dict) else None
+        axis = d.get("axis") if isinstance(d, dict) else None
+        if not (isinstance(c, list) and len(c) == 2 and all(_is_num(v) for v in c)
+                and axis in ("x", "y")):
+            raise LevelError(f"level {level.name!r}: meta.doors[{k}]: expected "
+                             '{"center": [x, y], "axis": "x" or "y"}')
+        out.append((float(c[0]), float(c[1]), axis))
+    return out
 
 
 # ----------------------------------------------------------------------------------- houses
@@ -523,7 +564,8 @@ def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
         # connected through door-sized boundaries
         h = _T_CM // 2
         corners = [i for i, r in enumerate(rects) if i != corr
-                   and (r.x0 == h or r.x1 == W - h) and (r.y0 == h or r.y1 == D - h)]
+                   and (r.x0 == h or r.x1 == W - h) and (r.y0 == h or r.y1 == D - h)
+                   and r.area <= MAX_CUTAWAY * W * D]
         if corners:
             void = corners[int(rng.integers(len(corners)))]
 

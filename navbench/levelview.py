@@ -54,8 +54,10 @@ def draw_level(ax, level: Level, *, free_space: bool = True, doors: bool = False
         ax.add_patch(Polygon(wall_polygon(w), closed=True, facecolor=WALL_COLOUR,
                              edgecolor=WALL_COLOUR, linewidth=0.3, zorder=2))
     if doors:
-        for d in level.meta.get("doors", []) or []:
-            ax.plot(*d["center"], marker="o", markersize=3, color=DOOR_COLOUR, zorder=4)
+        from navbench.levelgen import meta_doors
+
+        for cx, cy, _ in meta_doors(level):
+            ax.plot(cx, cy, marker="o", markersize=3, color=DOOR_COLOUR, zorder=4)
     ax.set_xlim(0, level.width)
     ax.set_ylim(0, level.depth)
     ax.set_aspect("equal")

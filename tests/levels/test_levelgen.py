@@ -176,3 +176,13 @@ def test_impossible_requests_fail_clearly():
         make_level("m", 1, kind="castle")
     with pytest.raises(ConfigError, match="unknown benchmark level"):
         make_benchmark_level("house-9")
+
+
+def test_validation_names_malformed_meta(committed):
+    lv = committed["house-2"]
+    bad = type(lv)(**{**lv.__dict__, "meta": {**lv.meta, "doors": [{"center": [1.0], "axis": "x"}]}})
+    with pytest.raises(LevelError, match=r"meta.doors\[0\]"):
+        validate_level(bad)
+    bad = type(lv)(**{**lv.__dict__, "meta": {**lv.meta, "rooms": [[0, 0, "a", 1]]}})
+    with pytest.raises(LevelError, match=r"meta.rooms\[0\]"):
+        validate_level(bad)
