@@ -181,3 +181,21 @@ def test_paper_camera_matches_reference_once():
     assert a.valid.all()  # a closed house: every pixel sees a surface
     np.testing.assert_allclose(a.depth, b.depth, atol=1e-5, rtol=0)
     np.testing.assert_allclose(a.rgb, b.rgb, atol=1e-5, rtol=0)
+
+
+def test_house_1_matches_reference():
+    from pathlib import Path
+
+    from navbench.level import load_level
+
+    path = Path(__file__).resolve().parents[2] / "levels" / "house-1.json"
+    if not path.is_file():
+        pytest.skip("levels/house-1.json not generated yet")
+    level = load_level(path)
+    cam = RaycastCamera(level, HALF_CAMERA)
+    for pose in _free_poses(level, 4, seed=2):
+        a = cam.render(pose)
+        b = render_reference(level, HALF_CAMERA, pose)
+        assert np.array_equal(a.valid, b.valid)
+        np.testing.assert_allclose(a.depth[a.valid], b.depth[b.valid], atol=1e-5, rtol=0)
+        np.testing.assert_allclose(a.rgb, b.rgb, atol=1e-5, rtol=0)
