@@ -111,19 +111,29 @@ def _check_arrays(spec: GridSpec, occ: np.ndarray, col: np.ndarray, where: str) 
         raise ArtifactError(f"{where}: col contains NaN or infinite values")
 
 
-def grid_for_level(level, shape=PAPER_GRID_SHAPE, margin_z: float = 0.15) -> GridSpec:
-    """The grid of a level: square ``xy`` cells over the floor plan, ``z`` with margins.
+def grid_for_box(lo, hi, shape=PAPER_GRID_SHAPE, margin_z: float = 0.15) -> GridSpec:
+    """A grid over the world box ``[lo, hi]`` (metres): square ``xy`` cells, ``z`` with margins.
 
-    ``xy``: cell size ``max(width, depth) / max(nx, ny)`` from the origin, so the grid covers
-    ``[0, width] x [0, depth]`` (and a little more along the shorter side) and its ``xy`` cells
-    match ``level.occupancy_raster(level, cell)``. ``z``: ``[-margin_z, height + margin_z]``, so
-    that both the floor and the ceiling lie between cell centres (with the defaults, 20 cells
-    of 7.5 cm put the floor and the ceiling exactly half-way between two centres).
+    ``xy``: cell size ``max((hi - lo)_x / nx, (hi - lo)_y / ny)`` from ``lo``, so the grid covers
+    the box (and a little more along the shorter side). ``z``: ``[lo_z - margin_z, hi_z +
+    margin_z]``, so surfaces at ``lo_z`` (floor) and ``hi_z`` (ceiling) lie between cell centres.
     """
     nx, ny, nz = (int(v) for v in shape)
-    cell = max(level.width / nx, level.depth / ny)
-    return GridSpec((0.0, 0.0, -margin_z), (nx * cell, ny * cell, level.height + margin_z),
-                    (nx, ny, nz))
+    lo = [float(v) for v in lo]
+    hi = [float(v) for v in hi]
+    cell = max((hi[0] - lo[0]) / nx, (hi[1] - lo[1]) / ny)
+    return GridSpec((lo[0], lo[1], lo[2] - margin_z),
+                    (lo[0] + nx * cell, lo[1] + ny * cell, hi[2] + margin_z), (nx, ny, nz))
+
+
+def grid_for_level(level, shape=PAPER_GRID_SHAPE, margin_z: float = 0.15) -> GridSpec:
+    """The grid of a level: :func:`grid_for_box` of ``[0, width] x [0, depth] x [0, height]``.
+
+    Its ``xy`` cells are those of ``level.occupancy_raster(level, cell)``. With the default
+    shape and margin, 20 ``z`` cells of 7.5 cm put the floor and a 1.2 m ceiling exactly
+    half-way between two cell centres.
+    """
+    return grid_for_box((0.0, 0.0, 0.0), (level.width, level.depth, level.height), shape, margin_z)
 
 
 # ------------------------------------------------------------------------------ interpolation

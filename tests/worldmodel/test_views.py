@@ -1,0 +1,103 @@
+"""Views: collection, artifact validation, TUM RGB-D round trip."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from navbench.errors import ArtifactError
+from navbench.geometry import AGENT_RADIUS, Intrinsics, camera_pose
+from navbench.level import distance_to_solids
+from navbench.worldmodel.views import (
+    Views, collect_views, export_views, import_views, load_views, planar_from_camera, save_views,
+)
+
+SMALL = Intrinsics(16, 12, 7.5, 7.5, 8.0, 6.0)
+
+
+@pytest.fixture(scope="module")
+def views(room):
+    return collect_views(room, 6, SMALL, seed=3)
+
+
+def test_collect_views_is_seeded_and_in_free_space(room, views):
+    again = collect_views(room, 6, SMALL, seed=3)
+    np.testing.assert_array_equal(views.poses, again.poses)
+    np.testing.assert_array_equal(views.rgb, again.rgb)
+    assert not np.array_equal(collect_views(room, 6, SMALL, seed=4).poses, views.poses)
+    assert np.all(distance_to_solids(room, views.poses[:, :2]) >= AGENT_RADIUS + 0.05)
+    assert views.valid.all() and views.rgb.dtype == np.uint8 and views.depth.dtype == np.float32
+    assert views.box == ((0, 0, 0), (room.width, room.depth, room.height))
+
+
+@pytest.mark.parametrize("name", ["v", "v.npz"])
+def test_save_load_roundtrip(tmp_path, views, name):
+    back = load_views(save_views(views, tmp_path / name))
+    for k in ("poses", "rgb", "depth", "valid"):
+        np.testing.assert_array_equal(np.asarray(getattr(back, k)), getattr(views, k))
+    assert (back.intrinsics, back.camera_height, back.level, back.seed, back.box) == \
+        (views.intrinsics, views.camera_height, views.level, views.seed, views.box)
+
+
+def test_malformed_artifacts_raise(tmp_path, views):
+    d = save_views(views, tmp_path / "v")
+    np.save(d / "depth.npy", views.depth[:, :5])
+    with pytest.raises(ArtifactError, match="depth has shape"):
+        load_views(d)
+    bad = views.depth.copy()
+    bad[2, 3, 4] = np.nan
+    np.save(d / "depth.npy", bad)
+    with pytest.raises(ArtifactError, match="view 2 has NaN"):
+        load_views(d)
+    np.save(d / "depth.npy", views.depth)
+    h = json.loads((d / "views.json").read_text())
+    del h["intrinsics"]
+    (d / "views.json").write_text(json.dumps(h))
+    with pytest.raises(ArtifactError, match="missing or malformed intrinsics"):
+        load_views(d)
+    save_views(views, d)
+    np.save(d / "poses.npy", views.poses[:4])
+    with pytest.raises(ArtifactError, match="header says 6 views, poses has 4"):
+        load_views(d)
+    (d / "poses.npy").unlink()
+    with pytest.raises(ArtifactError, match="missing poses.npy"):
+        load_views(d)
+    with pytest.raises(ArtifactError, match="no such"):
+        load_views(tmp_path / "nothing")
+    with pytest.raises(ArtifactError, match="rgb has shape"):
+        Views(views.poses, views.intrinsics, 0.5, views.rgb[:, :, :3], views.depth, views.valid,
+              "x", 0, views.box)
+
+
+def test_tum_roundtrip_is_lossless_up_to_depth_quantisation(tmp_path, views):
+    v = views.subset(range(6))
+    v.valid[0, 0, 0] = False
+    v.depth[0, 0, 0] = np.inf
+    out = export_views(v, tmp_path / "tum")
+    assert (out / "rgb.txt").is_file() and len(list((out / "depth").glob("*.png"))) == 6
+    back = import_views(out)
+    np.testing.assert_array_equal(back.rgb, v.rgb)
+    np.testing.assert_array_equal(back.valid, v.valid)
+    np.testing.assert_allclose(back.depth[v.valid], v.depth[v.valid], atol=0.5 / 5000 + 1e-6)
+    np.testing.assert_allclose(back.poses, v.poses, atol=1e-7)
+    assert back.intrinsics == v.intrinsics and back.camera_height == v.camera_height
+    assert back.meta["max_tilt_deg"] < 1e-5
+    # explicit intrinsics and no json: the box comes from the observed points
+    (out / "intrinsics.json").unlink()
+    b2 = import_views(out, intrinsics=SMALL, camera_height=0.5)
+    assert np.all(np.asarray(b2.box[0]) <= [0.1, 0.1, 0.0]) and b2.box[1][2] >= 1.2
+    with pytest.raises(ArtifactError, match="no intrinsics"):
+        import_views(out)
+
+
+def test_groundtruth_is_camera_to_world(tmp_path, views):
+    out = export_views(views.subset([0]), tmp_path / "tum")
+    line = [ln for ln in (out / "groundtruth.txt").read_text().splitlines() if not ln.startswith("#")][0]
+    t = np.array(line.split()[1:4], float)
+    T = camera_pose(views.poses[0], views.camera_height)
+    np.testing.assert_allclose(t, T[:3, 3], atol=1e-8)
+    pose, h, tilt = planar_from_camera(T)
+    np.testing.assert_allclose(pose, views.poses[0], atol=1e-12)
+    assert h == pytest.approx(0.5) and tilt == pytest.approx(0.0, abs=1e-6)
