@@ -1,0 +1,1 @@
+"""Navigation: the waypoint controller, the episode loop and offline scoring."""

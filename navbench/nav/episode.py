@@ -1,0 +1,188 @@
+"""One navigation episode: plan on the world model, follow the plan on the estimated pose.
+
+Loop (paper fig. 2, appendix B): reset the simulator at the task's start and the estimator at
+the known start pose; plan once from the start with A* on the occupancy slice; then per step
+
+1. the controller picks a control from the ESTIMATED pose and the remaining waypoints;
+2. the simulator executes it (noisy dynamics, collision check);
+3. the estimator updates the pose estimate from the control and the new observation.
+
+End reasons (``EpisodeRecord.end_reason``):
+
+* ``"reached"``: the controller has reached every waypoint (the last one is the target, or the
+  A* lattice point within the SPEC's goal test) and the estimate is within
+  ``goal_tolerance`` (1.05 L: the SPEC's A* goal test 0.8 L plus the waypoint tolerance) of
+  the target: the agent *believes* it
+  arrived. Success is scored later from the true pose (:mod:`navbench.nav.metrics`);
+* ``"stuck"``: the simulator reported a collision; movement is prohibited for the rest of the
+  episode (appendix D), so the episode ends at once;
+* ``"step-limit"``: ``max_steps`` controls were executed;
+* ``"no-plan"``: the planner found no path from the start (or from a replanning point).
+
+When the controller runs out of waypoints without the estimate being within the goal
+tolerance, the agent replans from its estimated position (counted in ``replans``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from navbench.geometry import AGENT_LENGTH
+from navbench.nav.controller import ControllerConfig, controller_step
+from navbench.plan.astar import PlannerConfig, PlannerMap, plan_on_map, _cached_map
+
+TIMING_KEYS = ("sim", "render", "estimate", "plan", "control")
+END_REASONS = ("reached", "step-limit", "stuck", "no-plan")
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """Episode settings; lengths in metres."""
+
+    max_steps: int = 500  # controls per episode
+    # believed arrival: the estimate within this distance (m) of the target once every waypoint
+    # is reached; the SPEC's A* goal test (0.8 L) plus the controller's waypoint tolerance
+    # (0.25 L), since the last waypoint may be the A* lattice point within 0.8 L of the target
+    goal_tolerance: float = 1.05 * AGENT_LENGTH
+    max_replans: int = 10  # replans allowed before the episode ends as "no-plan"
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+
+
+@dataclass
+class EpisodeRecord:
+    """Everything needed to score an episode offline (shapes: ``T`` executed controls)."""
+
+    level: str
+    task_id: int
+    estimator: str
+    noise: str
+    seed: int
+    start: np.ndarray  # (3,) start pose
+    target: np.ndarray  # (2,) target position (m)
+    optimal_length: float  # shortest feasible path (m)
+    true_poses: np.ndarray  # (T + 1, 3) true poses, start first
+    est_poses: np.ndarray  # (T + 1, 3) estimated poses, start first
+    controls: np.ndarray  # (T, 3) executed (clipped) controls (turn rad, direction rad, speed m)
+    collided: bool
+    collision_step: int  # index t of the control whose move collided (-1 if none)
+    plan: np.ndarray  # (K, 2) initial waypoints (m); (0, 2) without a plan
+    replans: int
+    end_reason: str  # one of END_REASONS
+    timings_ms: dict  # key -> (T,) float64 milliseconds, keys TIMING_KEYS
+    plan_status: str = ""  # status of the initial plan: shortcut | astar | no-plan
+    plan_ms: float = 0.0  # time of the initial plan (ms; also added to timings_ms["plan"][0])
+
+    @property
+    def steps(self) -> int:
+        return len(self.controls)
+
+
+def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: EpisodeConfig = EpisodeConfig(),
+                planner_map: PlannerMap | None = None) -> EpisodeRecord:
+    """Run one episode of ``task`` in ``simulator`` (already constructed for ``level``).
+
+    ``occ2d (nx, ny)`` bool / ``xs``, ``ys`` the world model's occupancy slice the agent plans
+    on (see :mod:`navbench.plan.astar`); ``estimator`` implements
+    :class:`navbench.track.base.Estimator`. ``planner_map`` (optional) skips the per-map cache.
+    """
+    from navbench.sim.dynamics import clip_control
+
+    pm = planner_map if planner_map is not None else _cached_map(occ2d, xs, ys, config.planner)
+    start = np.asarray(task.start, dtype=np.float64).reshape(3)
+    target = np.asarray(task.target, dtype=np.float64).reshape(2)
+
+    frame0 = simulator.reset(start)
+    start = np.asarray(simulator.pose, dtype=np.float64).copy()  # heading wrapped by the simulator
+    estimator.reset(start.copy(), frame0)
+    est = start.copy()
+    true_poses = [start.copy()]
+    est_poses = [est.copy()]
+    controls: list[np.ndarray] = []
+    timings = {k: [] for k in TIMING_KEYS}
+
+    t0 = time.perf_counter()
+    plan = plan_on_map(pm, start[:2], target)
+    plan_ms = (time.perf_counter() - t0) * 1e3
+    pending_plan_ms = plan_ms
+    waypoints = plan.waypoints if plan.ok else None
+    replans = 0
+    collided, collision_step = False, -1
+    end_reason = "no-plan" if waypoints is None else "step-limit"
+
+    while waypoints is not None and len(controls) < config.max_steps:
+        t0 = time.perf_counter()
+        control, waypoints = controller_step(est, waypoints, config.controller)
+        control_ms = (time.perf_counter() - t0) * 1e3
+        if control is None:
+            if math.dist(est[:2], target) <= config.goal_tolerance:
+                end_reason = "reached"
+                break
+            if replans >= config.max_replans:
+                end_reason = "no-plan"
+                break
+            replans += 1
+            t0 = time.perf_counter()
+            again = plan_on_map(pm, est[:2], target)
+            pending_plan_ms += (time.perf_counter() - t0) * 1e3
+            if not again.ok:
+                end_reason = "no-plan"
+                break
+            waypoints = again.waypoints
+            continue
+        control = clip_control(control, est[2])
+
+        t0 = time.perf_counter()
+        res = simulator.step(control)
+        sim_ms = (time.perf_counter() - t0) * 1e3
+        true_pose = np.asarray(res.pose, dtype=np.float64).copy()
+
+        t0 = time.perf_counter()
+        est = np.asarray(estimator.update(control, res.frame, true_pose=true_pose), dtype=np.float64).reshape(3).copy()
+        est_ms = (time.perf_counter() - t0) * 1e3
+        lt = getattr(estimator, "last_timing", None) or {}
+        render_ms = float(lt.get("render", 0.0))
+
+        controls.append(control.as_array())
+        true_poses.append(true_pose)
+        est_poses.append(est.copy())
+        timings["sim"].append(sim_ms)
+        timings["render"].append(render_ms)
+        timings["estimate"].append(float(lt.get("estimate", max(0.0, est_ms - render_ms))))
+        timings["plan"].append(pending_plan_ms)
+        timings["control"].append(control_ms)
+        pending_plan_ms = 0.0
+
+        if res.collided:
+            collided, collision_step = True, len(controls) - 1
+            end_reason = "stuck"
+            break
+    else:
+        if waypoints is not None and len(controls) >= config.max_steps:
+            end_reason = "step-limit"
+
+    return EpisodeRecord(
+        level=str(getattr(level, "name", level)),
+        task_id=int(task.id),
+        estimator=str(getattr(estimator, "name", type(estimator).__name__)),
+        noise=str(getattr(simulator, "noise_name", getattr(simulator, "noise", "unknown"))),
+        seed=int(getattr(simulator, "seed", -1)),
+        start=start,
+        target=target,
+        optimal_length=float(task.optimal_length),
+        true_poses=np.asarray(true_poses, dtype=np.float64).reshape(-1, 3),
+        est_poses=np.asarray(est_poses, dtype=np.float64).reshape(-1, 3),
+        controls=np.asarray(controls, dtype=np.float64).reshape(-1, 3),
+        collided=collided,
+        collision_step=collision_step,
+        plan=(plan.waypoints.copy() if plan.ok else np.zeros((0, 2))),
+        replans=replans,
+        end_reason=end_reason,
+        timings_ms={k: np.asarray(v, dtype=np.float64) for k, v in timings.items()},
+        plan_status=plan.status,
+        plan_ms=plan_ms,
+    )

@@ -1,0 +1,95 @@
+"""Scoring from the episode record alone (SPEC "Tasks and scoring"; habitat-style, offline).
+
+* success: the final TRUE position is closer to the target than ``2 L``;
+* SPL (Anderson et al. 2018, "On Evaluation of Embodied Navigation Agents", eq. 1; paper
+  eq. 8): ``SPL = 1/N sum_i s_i * l_i / max(p_i, l_i)`` with ``s_i`` the success, ``l_i`` the
+  shortest feasible path length and ``p_i`` the length of the path the agent took;
+* RMSE per trajectory of the estimated against the true poses: location (m) and orientation
+  (deg, from wrapped angle differences).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from navbench.geometry import AGENT_LENGTH, wrap_angle
+
+
+@dataclass(frozen=True)
+class EpisodeScore:
+    """Scores of one episode; lengths in metres, ``rot_rmse_deg`` in degrees."""
+
+    success: bool
+    path_length: float
+    optimal_length: float
+    spl_term: float
+    loc_rmse_m: float
+    rot_rmse_deg: float
+    steps: int
+    end_reason: str
+    collided: bool
+
+
+def path_length(true_poses) -> float:
+    """Length (m) of the polyline through the positions of ``true_poses (T + 1, 3)`` (or ``(T + 1, 2)``)."""
+    p = np.asarray(true_poses, dtype=np.float64)
+    if len(p) < 2:
+        return 0.0
+    return float(np.sum(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)))
+
+
+def success(final_xy, target_xy, agent_length: float = AGENT_LENGTH) -> bool:
+    """True when the final true position ``(2,)`` is closer than ``2 * agent_length`` to the target."""
+    return bool(math.dist(np.asarray(final_xy, float)[:2], np.asarray(target_xy, float)[:2]) < 2 * agent_length)
+
+
+def spl_term(success: bool, optimal: float, path: float) -> float:
+    """One task's SPL term ``s * l / max(p, l)`` (Anderson et al. 2018); ``l`` optimal, ``p`` taken (m)."""
+    if not success:
+        return 0.0
+    return float(optimal / max(path, optimal))
+
+
+def spl(scores) -> float:
+    """Success weighted by path length: the mean of the episodes' ``spl_term`` (nan if none)."""
+    terms = [s.spl_term for s in scores]
+    return float(np.mean(terms)) if terms else float("nan")
+
+
+def location_rmse(true_poses, est_poses) -> float:
+    """Root mean square of the position errors (m) over a trajectory ``(T, >=2)``."""
+    t = np.asarray(true_poses, dtype=np.float64)[:, :2]
+    e = np.asarray(est_poses, dtype=np.float64)[:, :2]
+    return float(np.sqrt(np.mean(np.sum((t - e) ** 2, axis=1)))) if len(t) else float("nan")
+
+
+def orientation_rmse(true_poses, est_poses) -> float:
+    """Root mean square of the wrapped heading errors, in degrees, over ``(T, 3)`` poses."""
+    t = np.asarray(true_poses, dtype=np.float64)[:, 2]
+    e = np.asarray(est_poses, dtype=np.float64)[:, 2]
+    if not len(t):
+        return float("nan")
+    d = wrap_angle(e - t)
+    return float(np.degrees(np.sqrt(np.mean(d ** 2))))
+
+
+def score_episode(record, agent_length: float = AGENT_LENGTH) -> EpisodeScore:
+    """Score an :class:`navbench.nav.episode.EpisodeRecord` (only its recorded arrays are used)."""
+    tp = np.asarray(record.true_poses, dtype=np.float64)
+    ep = np.asarray(record.est_poses, dtype=np.float64)
+    ok = success(tp[-1, :2], record.target, agent_length)
+    p = path_length(tp)
+    return EpisodeScore(
+        success=ok,
+        path_length=p,
+        optimal_length=float(record.optimal_length),
+        spl_term=spl_term(ok, float(record.optimal_length), p),
+        loc_rmse_m=location_rmse(tp, ep),
+        rot_rmse_deg=orientation_rmse(tp, ep),
+        steps=len(tp) - 1,
+        end_reason=str(record.end_reason),
+        collided=bool(record.collided),
+    )
