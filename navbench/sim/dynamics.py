@@ -128,7 +128,3 @@ def predict(pose, control) -> np.ndarray:
     """Noise-free dynamics: ``apply_dynamics(pose, control, 0, 0)``."""
     return apply_dynamics(pose, control, 0.0, 0.0)
 
-
-def control_towards(pose, turn: float, speed: float, offset: float = 0.0) -> Control:
-    """Convenience: a control turning by ``turn`` and stepping ``speed`` at ``heading + offset``."""
-    return Control(float(turn), float(wrap_angle(float(pose[2]) + offset)), float(speed))

@@ -98,11 +98,6 @@ def test_random_walk_never_overlaps(name):
     assert np.all((poses[:, 0] >= AGENT_LENGTH / 2 - 1e-6) & (poses[:, 0] <= level.width - AGENT_LENGTH / 2 + 1e-6))
 
 
-def _run(sim, controls, pose):
-    sim.reset(pose)
-    return np.array([sim.step(u).pose for u in controls]), [sim.step(controls[0]).eps]
-
-
 def test_same_seed_same_trajectory_and_aligned_stream():
     level = rooms()
     rng = np.random.default_rng(0)
