@@ -1,0 +1,159 @@
+"""Where episode chunks run: this process, a local process pool, or a Ray cluster.
+
+Every executor has ``workers`` and ``map_unordered(fn, items)``, an iterator over ``fn(item)``
+results in completion order, and is a context manager whose exit stops outstanding work (so
+Ctrl-C leaves no stray workers). Results travel back to the caller, which is the only writer
+to the cache and the database.
+
+* :class:`SerialExecutor` runs everything in the calling process (``--workers 1``).
+* :class:`LocalExecutor` is a :class:`concurrent.futures.ProcessPoolExecutor` with the
+  ``forkserver`` start method (``spawn`` where forkserver is unavailable): workers start clean,
+  without the parent's threads, database connections or torch state, and keep their loaded
+  level/map/tasks between chunks.
+* :class:`RayExecutor` submits chunks as Ray tasks (``pip install navbench[ray]``); ``address``
+  names a running cluster, ``None`` starts a local instance. Workers read the artifacts by
+  path, so a multi-machine cluster needs the cache directory on a shared filesystem.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import Any, Callable, Iterable, Iterator
+
+from navbench.errors import ConfigError
+
+EXECUTORS = ("local", "ray")
+
+
+def default_workers() -> int:
+    """The number of CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+class SerialExecutor:
+    """Run chunks one after the other in this process."""
+
+    workers = 1
+
+    def map_unordered(self, fn: Callable, items: Iterable) -> Iterator[Any]:
+        for item in items:
+            yield fn(item)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+class LocalExecutor:
+    """A pool of ``workers`` local processes (forkserver or spawn start method)."""
+
+    def __init__(self, workers: int, start_method: str | None = None):
+        self.workers = int(workers)
+        if start_method is None:
+            start_method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
+        self.context = mp.get_context(start_method)
+        self.pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self):
+        self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self.context)
+        return self
+
+    def __exit__(self, *exc):
+        if self.pool is not None:
+            self.pool.shutdown(wait=exc[0] is None, cancel_futures=True)
+            if exc[0] is not None:
+                for p in list((getattr(self.pool, "_processes", None) or {}).values()):
+                    p.terminate()
+        self.pool = None
+        return False
+
+    def map_unordered(self, fn: Callable, items: Iterable) -> Iterator[Any]:
+        """Keep at most 2 x workers chunks in flight; yield results as they complete."""
+        assert self.pool is not None, "use LocalExecutor as a context manager"
+        it = iter(items)
+        pending = set()
+        for item in it:
+            pending.add(self.pool.submit(fn, item))
+            if len(pending) >= 2 * self.workers:
+                break
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for f in done:
+                yield f.result()
+                nxt = next(it, None)
+                if nxt is not None:
+                    pending.add(self.pool.submit(fn, nxt))
+
+
+class RayExecutor:
+    """Chunks as Ray tasks on the cluster at ``address`` (``None``: a local Ray instance)."""
+
+    def __init__(self, address: str | None = None, workers: int | None = None):
+        try:
+            import ray
+        except ImportError:
+            raise ConfigError("the ray executor needs Ray: pip install 'navbench[ray]'") from None
+        self.ray = ray
+        self.address = address
+        self.workers = workers
+        self._started = False
+
+    def __enter__(self):
+        if not self.ray.is_initialized():
+            kw: dict[str, Any] = {"ignore_reinit_error": True, "include_dashboard": False,
+                                  "log_to_driver": False}
+            if self.address:
+                kw["address"] = self.address
+            elif self.workers:
+                kw["num_cpus"] = int(self.workers)
+            self.ray.init(**kw)
+            self._started = True
+        if not self.workers:
+            self.workers = max(1, int(self.ray.cluster_resources().get("CPU", 1)))
+        return self
+
+    def __exit__(self, *exc):
+        if self._started:
+            self.ray.shutdown()
+        return False
+
+    def map_unordered(self, fn: Callable, items: Iterable) -> Iterator[Any]:
+        remote = self.ray.remote(num_cpus=1)(fn)
+        it = iter(items)
+        pending = []
+        for item in it:
+            pending.append(remote.remote(item))
+            if len(pending) >= 2 * self.workers:
+                break
+        try:
+            while pending:
+                done, pending = self.ray.wait(pending, num_returns=1)
+                for ref in done:
+                    yield self.ray.get(ref)
+                    nxt = next(it, None)
+                    if nxt is not None:
+                        pending.append(remote.remote(nxt))
+        finally:
+            for ref in pending:
+                self.ray.cancel(ref, force=True)
+
+
+def make_executor(kind: str = "local", workers: int = 0, address: str | None = None):
+    """An executor by name; ``workers`` 0 means the CPU count, 1 (local) runs in-process."""
+    if kind not in EXECUTORS:
+        raise ConfigError(f"unknown executor {kind!r}; choose one of {EXECUTORS}")
+    if workers < 0:
+        raise ConfigError(f"workers must be >= 0, got {workers}")
+    if kind == "ray":
+        return RayExecutor(address, workers or None)
+    if address:
+        raise ConfigError("--address is only for --executor ray")
+    n = workers or default_workers()
+    return SerialExecutor() if n == 1 else LocalExecutor(n)
