@@ -37,6 +37,8 @@ from navbench.level import Level, prisms, surface_colour, texture_table
 
 #: Images with at least this many pixels render in parallel by default (320 x 240).
 PARALLEL_MIN_PIXELS = 320 * 240
+#: ... and only with at least this many numba threads.
+PARALLEL_MIN_THREADS = 4
 
 # surface kinds of a pixel's hit
 _NONE, _FLOOR, _CEIL, _SIDE, _TOP = 0, 1, 2, 3, 4
@@ -229,15 +231,20 @@ class RaycastCamera:
     float32 z-depth in metres (``+inf`` where invalid), valid ``(H, W)`` bool.
 
     ``parallel``: spread the columns over numba's threads. ``None`` (default) does so only for
-    images of at least :data:`PARALLEL_MIN_PIXELS` pixels, where the thread start-up pays off;
-    on a busy machine one thread is often faster, so benchmarks may pass ``False``.
+    images of at least :data:`PARALLEL_MIN_PIXELS` pixels and with at least
+    :data:`PARALLEL_MIN_THREADS` numba threads: with two cores shared by other processes, the
+    parallel region often waits a whole scheduler slice for a descheduled thread (measured median
+    8 ms against 6.7 ms on one thread for 320 x 240 on a loaded 2-core machine).
     """
 
     def __init__(self, level: Level, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                  max_range: float = MAX_RANGE, parallel: bool | None = None):
         self.level = level
         if parallel is None:
-            parallel = intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+            import numba
+
+            parallel = (intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+                        and numba.get_num_threads() >= PARALLEL_MIN_THREADS)
         self.parallel = bool(parallel)
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
