@@ -1,0 +1,37 @@
+"""``navbench report``: one self-contained HTML page with the paper's figures, plus CSV tables."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console
+
+
+def report(
+    out: str = typer.Option("results/report", "--out", help="Output folder (index.html + CSV files)."),
+    db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
+                           help="Results database URL [default: sqlite:///results/navbench.db]."),
+    cache: str = typer.Option("results/cache", "--cache",
+                              help="Stage cache holding the trajectories and maps."),
+    levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),
+    boot: int = typer.Option(2000, "--boot", min=1, help="Bootstrap resamples for the 95% intervals."),
+    trajectories: int = typer.Option(3, "--trajectories", min=0, help="Trajectories drawn per level."),
+):
+    """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
+
+    Sections: runs; SPL by estimator and noise (Fig. 5a); scores; RMSE CDFs and per-step runtime
+    (Fig. 4); levels with tasks and trajectories (Fig. 3); learned maps (Fig. 1) and map quality;
+    benchmark history.
+    """
+    from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.report import build_report, store_loaders
+
+    load_trajectory, load_map = store_loaders(cache)
+    with ResultsDB(db, create=False) as rdb:
+        index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
+                             levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories)
+    console.print(f"report written to {index}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("report")(report)

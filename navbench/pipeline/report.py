@@ -1,0 +1,478 @@
+"""The results report: one self-contained ``index.html`` plus a CSV file of every table.
+
+:func:`build_report` reads the results database only (scores are recomputed offline from the
+stored episode rows), draws the paper's figures with :mod:`navbench.pipeline.plots` and embeds
+them as base64 PNG (no external resources: no scripts, fonts or style sheets are fetched).
+Trajectories and maps come through two callables so the report does not depend on where they
+are stored: ``load_trajectory(traj_key) -> {"true_poses", "est_poses", "target"}`` and
+``load_map(map_key) -> VoxelMap``; :func:`store_loaders` builds both from the stage cache.
+
+Sections: run metadata; SPL by estimator and noise (Fig. 5a, with intervals, next to the paper's
+values); the full score table; location/orientation RMSE CDFs (Fig. 4a,b: from the tracking-study
+rows when present, else from the navigation episodes); per-step runtime by component (Fig. 4c);
+each level's top view with its tasks and a few true vs estimated trajectories (Fig. 3); the
+learned maps' isometric views (Fig. 1, when :func:`navbench.worldmodel.plots.draw_isometric`
+exists); map quality; benchmark history.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable
+
+import numpy as np
+
+from navbench.pipeline.score import (
+    ESTIMATOR_ORDER,
+    NOISE_ORDER,
+    _order_key,
+    estimator_variants,
+    select_episodes,
+    spl_matrix,
+    summarise,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas
+
+    from navbench.pipeline.db import ResultsDB
+
+TrajectoryLoader = Callable[[str], dict]
+MapLoader = Callable[[str], Any]
+DPI = 100
+
+
+@dataclass
+class _Page:
+    """The report being assembled: HTML sections, CSV tables, notes."""
+
+    out_dir: Path
+    sections: list[str] = field(default_factory=list)
+    csvs: list[str] = field(default_factory=list)
+    figures: int = 0
+
+    def h2(self, title: str, anchor: str) -> None:
+        self.sections.append(f'<h2 id="{anchor}">{html.escape(title)}</h2>')
+
+    def p(self, text: str, cls: str = "") -> None:
+        c = f' class="{cls}"' if cls else ""
+        self.sections.append(f"<p{c}>{html.escape(text)}</p>")
+
+    def note(self, text: str) -> None:
+        self.p(text, "note")
+
+    def table(self, frame: "pandas.DataFrame", name: str, caption: str, index: bool = False,
+              digits: int = 4, display: "pandas.DataFrame | None" = None) -> None:
+        """Write ``<name>.csv`` and show the table (or ``display``, a compact view of it)."""
+        path = self.out_dir / f"{name}.csv"
+        frame.to_csv(path, index=index, float_format=f"%.{max(digits, 6)}g")
+        self.csvs.append(path.name)
+        shown = (frame if display is None else display).copy()
+        for col in shown.columns:
+            if shown[col].dtype == object:
+                shown[col] = shown[col].map(_cell)
+        body = shown.to_html(index=index, na_rep="–", border=0, classes="tbl",
+                             float_format=lambda v: f"{v:.{digits}g}", escape=True)
+        self.sections.append(
+            f'<figure class="table"><figcaption>{html.escape(caption)} '
+            f'(<a href="{html.escape(path.name)}">{html.escape(path.name)}</a>)</figcaption>{body}</figure>')
+
+    def figure(self, draw: Callable[[Any], None], caption: str, size: tuple[float, float]) -> bool:
+        """Draw ``draw(fig)`` on a fresh figure and embed it as a base64 PNG; False on failure."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=size, dpi=DPI)
+        FigureCanvasAgg(fig)
+        try:
+            draw(fig)
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+        except Exception as e:  # a figure that cannot be drawn becomes a note, not a failed report
+            self.note(f"{caption}: figure unavailable ({type(e).__name__}: {e})")
+            return False
+        data = base64.b64encode(buf.getvalue()).decode("ascii")
+        self.figures += 1
+        self.sections.append(
+            f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+        return True
+
+
+def _cell(v: Any) -> Any:
+    if v is None:
+        return "–"
+    if isinstance(v, (dict, list)):
+        return json.dumps(v, sort_keys=True)
+    if isinstance(v, float) and not np.isfinite(v):
+        return None
+    return v
+
+
+_CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:2em auto;max-width:1150px;
+color:#222;padding:0 1em}
+h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:2em}
+table.tbl{border-collapse:collapse;font-size:.82em;margin:.4em 0}
+table.tbl td,table.tbl th{border:1px solid #ddd;padding:.2em .5em;text-align:right}
+table.tbl th{background:#f3f3f3}figure{margin:1em 0}figure img{max-width:100%;height:auto}
+figcaption{font-size:.85em;color:#555}.note{color:#8a6d3b;background:#fcf8e3;padding:.3em .6em}
+nav a{margin-right:1em}.meta{font-size:.85em;color:#555}
+pre{font-size:.8em;background:#f7f7f7;padding:.5em;overflow-x:auto}details{margin:.3em 0;font-size:.9em}
+"""
+
+
+def _runtime_table(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame") -> "pandas.DataFrame":
+    """Median per-step milliseconds by component and estimator (episodes, else tracking rows)."""
+    import pandas as pd
+
+    if not episodes.empty:
+        f = episodes.assign(estimator=estimator_variants(episodes))
+        cols = [c for c in ("sim_ms", "render_ms", "estimate_ms", "plan_ms", "control_ms", "step_ms")
+                if c in f.columns]
+        t = f.groupby("estimator")[cols].median()
+        t.columns = [c[:-3] for c in cols]
+    elif not tracking.empty:
+        f = tracking.assign(estimator=estimator_variants(tracking))
+        t = f.groupby("estimator")[["render_ms", "estimate_ms", "step_ms_median"]].median()
+        t.columns = ["render", "estimate", "step_ms"]
+    else:
+        return pd.DataFrame()
+    t = t.rename(columns={"step": "step_ms"})
+    t = t.loc[sorted(t.index, key=lambda e: (_order_key(e.split("{")[0], ESTIMATOR_ORDER), e))]
+    t["step_hz"] = 1000.0 / t["step_ms"]
+    t.index.name = "estimator"
+    return t
+
+
+def _cdf_groups(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame"):
+    """(source text, {label: loc values}, {label: rot values}, styles) for Fig. 4a,b."""
+    from navbench.pipeline.plots import estimator_colour, noise_linestyle
+
+    if not tracking.empty:
+        f = tracking.assign(variant=estimator_variants(tracking))
+        src, keys = "tracking-study rows", ["variant"]
+    elif not episodes.empty:
+        f = episodes.assign(variant=estimator_variants(episodes))
+        src, keys = "navigation episodes", ["variant", "noise"]
+    else:
+        return None
+    loc, rot, styles = {}, {}, {}
+    groups = sorted(f.groupby(keys), key=lambda kv: (
+        _order_key(kv[0][0].split("{")[0], ESTIMATOR_ORDER),
+        _order_key(kv[0][1], NOISE_ORDER) if len(keys) > 1 else (0, "")))
+    for i, (k, g) in enumerate(groups):
+        label = k[0] if len(keys) == 1 else f"{k[0]} ({k[1]})"
+        loc[label] = g["loc_rmse_m"].to_numpy(dtype=float)
+        rot[label] = g["rot_rmse_deg"].to_numpy(dtype=float)
+        styles[label] = (estimator_colour(k[0], i), noise_linestyle(k[1]) if len(keys) > 1 else "-")
+    return src, loc, rot, styles
+
+
+def _pick_trajectories(eps: "pandas.DataFrame", count: int) -> "pandas.DataFrame":
+    """A few episodes with stored trajectories: successful ones of the best-ranked estimator at
+    the lowest noise first, then by task id (deterministic)."""
+    e = eps[eps["traj_key"].notna()].copy()
+    if e.empty:
+        return e
+    e["_est"] = e["estimator"].map(lambda s: _order_key(s, ESTIMATOR_ORDER))
+    e["_noise"] = e["noise"].map(lambda s: _order_key(s, NOISE_ORDER))
+    e["_fail"] = ~e["success"].astype(bool)
+    e = e.sort_values(["_fail", "_est", "_noise", "task_id", "seed", "id"])
+    first = e.iloc[0]
+    same = e[(e["estimator"] == first["estimator"]) & (e["noise"] == first["noise"])]
+    return same.drop_duplicates("task_id").head(count)
+
+
+def _level_file(levels_dir: Path, name: str, meta: dict | None) -> Path | None:
+    candidates = [levels_dir / f"{name}.json"]
+    if meta and isinstance(meta.get("path"), str):
+        candidates.append(Path(meta["path"]))
+    for c in candidates:
+        if c.is_file():
+            return c
+    return None
+
+
+def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
+    page.h2("Runs", "runs")
+    if runs.empty:
+        page.note("No runs recorded yet.")
+        return
+    t = runs.drop(columns=["config"]).copy()
+    t["git_commit"] = t["git_commit"].map(lambda s: s[:12] if isinstance(s, str) else s)
+    t["config_hash"] = t["config_hash"].map(lambda s: s[:12] if isinstance(s, str) else s)
+    secs = (t["finished"] - t["started"]).dt.total_seconds()
+    t.insert(t.columns.get_loc("finished") + 1, "seconds", secs.round(1))
+    for c in ("started", "finished"):
+        t[c] = t[c].dt.strftime("%Y-%m-%d %H:%M:%S")
+    page.table(t, "runs", "Runs (times in UTC; config hash and commit abbreviated)")
+    for _, r in runs.tail(5).iterrows():
+        page.sections.append(
+            f"<details><summary>Resolved config of run {int(r['id'])} ({html.escape(str(r['command']))}, "
+            f"profile {html.escape(str(r['profile']))}, hash {html.escape(str(r['config_hash']))})</summary>"
+            f"<pre>{html.escape(json.dumps(r['config'], indent=1, sort_keys=True))}</pre></details>")
+
+
+def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
+    import pandas as pd
+
+    from navbench.pipeline.plots import PAPER_SPL, plot_spl
+
+    page.h2("Navigation: SPL by estimator and noise (Fig. 5a)", "spl")
+    if table is None or table.empty:
+        page.note("No navigation episodes stored yet (run `navbench run-navigation`).")
+        return
+    m = spl_matrix(table, "all")
+    page.table(m, "spl_table", "SPL pooled over all levels, [95% bootstrap interval]", index=True)
+    paper = pd.DataFrame(
+        [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
+        index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
+    page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
+    page.figure(lambda fig: plot_spl(fig.add_subplot(), table, "all"),
+                "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
+                "interval; black ticks: the paper's values", (8, 4.2))
+    page.h2("Scores per level", "scores")
+    page.p("Every stored episode counts once per (cell, task, seed); success rate and SPL are means, "
+           "RMSEs and step times medians over episodes, each with a 95% percentile-bootstrap interval.")
+    page.table(table, "scores", "Scores per level, estimator and noise (level 'all': pooled); "
+               "value [95% interval]", digits=3, display=_compact_scores(table))
+
+
+def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
+    """The score table with each metric and its interval in one ``"v [lo, hi]"`` cell."""
+    import pandas as pd
+
+    def fmt(r, m, d):
+        v = r[m]
+        if not np.isfinite(v):
+            return "–"
+        return f"{v:.{d}f} [{r[m + '_ci_low']:.{d}f}, {r[m + '_ci_high']:.{d}f}]"
+
+    rows = []
+    for _, r in table.iterrows():
+        rows.append({"level": r["level"], "estimator": r["estimator"], "noise": r["noise"],
+                     "episodes": r["episodes"], "success rate": fmt(r, "success_rate", 2),
+                     "SPL": fmt(r, "spl", 2), "loc RMSE (m)": fmt(r, "loc_rmse_m", 3),
+                     "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2), "step (ms)": fmt(r, "step_ms", 1),
+                     "rate (Hz)": "–" if not np.isfinite(r["step_hz"]) else f"{r['step_hz']:.1f}"})
+    return pd.DataFrame(rows)
+
+
+def _section_tracking(page: _Page, episodes, tracking) -> None:
+    import pandas as pd
+
+    from navbench.pipeline.plots import plot_loc_cdf, plot_rot_cdf, plot_step_runtime
+
+    page.h2("Tracking accuracy (Fig. 4a, b)", "tracking")
+    groups = _cdf_groups(episodes, tracking)
+    if groups is None:
+        page.note("No tracking rows or episodes stored yet.")
+    else:
+        src, loc, rot, styles = groups
+
+        def draw(fig):
+            a, b = fig.subplots(1, 2)
+            plot_loc_cdf(a, loc, styles)
+            plot_rot_cdf(b, rot, styles)
+
+        page.figure(draw, f"CDF of the per-trajectory location and orientation RMSE ({src}); "
+                          "dotted line: 0.5 x agent size", (11, 4.2))
+        rows = []
+        for label in loc:
+            lv, rv = loc[label], rot[label]
+            lv_f = lv[np.isfinite(lv)]
+            rows.append({"estimator": label, "trajectories": int(lv.size),
+                         "loc_rmse_median_m": float(np.median(lv_f)) if lv_f.size else np.nan,
+                         "frac_loc_rmse_below_0.1m": float(np.mean(lv_f < 0.1)) if lv_f.size else np.nan,
+                         "rot_rmse_median_deg": float(np.nanmedian(rv)) if np.isfinite(rv).any() else np.nan})
+        page.table(pd.DataFrame(rows), "tracking_summary",
+                   f"Tracking accuracy summary ({src}); the paper: location RMSE < 0.1 m in > 99% of trajectories")
+    page.h2("Per-step runtime (Fig. 4c)", "runtime")
+    rt = _runtime_table(episodes, tracking)
+    if rt.empty:
+        page.note("No timings stored yet.")
+        return
+    page.figure(lambda fig: plot_step_runtime(fig.add_subplot(), rt),
+                "Median time per step by component (sim, render, estimate, plan, control); "
+                "label: median total step time and rate", (9, 0.7 + 0.55 * len(rt)))
+    page.table(rt, "runtime", "Median per-step milliseconds by component", index=True, digits=4)
+
+
+def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
+                    load_trajectory: TrajectoryLoader | None, per_level: int) -> None:
+    from navbench.errors import NavbenchError
+    from navbench.level import load_level
+    from navbench.pipeline.plots import plot_level_runs
+
+    page.h2("Levels, tasks and trajectories (Fig. 3)", "levels")
+    lv = db.levels_frame()
+    names = list(dict.fromkeys(list(lv["name"]) + (list(episodes["level"]) if not episodes.empty else [])))
+    if not names:
+        page.note("No levels recorded yet.")
+        return
+    if load_trajectory is None:
+        page.note("No trajectory loader given: levels are drawn without trajectories.")
+    for name in sorted(names):
+        meta = lv[lv["name"] == name]["meta"].iloc[-1] if (lv["name"] == name).any() else None
+        path = _level_file(levels_dir, name, meta)
+        if path is None:
+            page.note(f"Level {name}: no level file in {levels_dir}; top view skipped.")
+            continue
+        try:
+            level = load_level(path)
+        except NavbenchError as e:
+            page.note(f"Level {name}: {e}")
+            continue
+        eps = episodes[episodes["level"] == name] if not episodes.empty else episodes
+        tasks = None
+        if not eps.empty and eps["task_set_key"].notna().any():
+            tasks = db.tasks_frame(task_set_key=eps["task_set_key"].dropna().iloc[-1])
+        if tasks is None or tasks.empty:
+            tasks = db.tasks_frame(level=name)
+            if not tasks.empty:
+                tasks = tasks[tasks["task_set_key"] == tasks["task_set_key"].iloc[-1]]
+        trajs, labels = [], []
+        if load_trajectory is not None and not eps.empty:
+            for _, e in _pick_trajectories(eps, per_level).iterrows():
+                try:
+                    tr = load_trajectory(e["traj_key"])
+                except (NavbenchError, OSError, KeyError, ValueError) as err:
+                    page.note(f"Level {name}: trajectory {str(e['traj_key'])[:12]} unavailable ({err})")
+                    continue
+                trajs.append(tr)
+                labels.append(f"task {e['task_id']} ({e['estimator']}, {e['noise']}, "
+                              f"{'success' if e['success'] else 'failure'})")
+        page.figure(lambda fig, level=level, tasks=tasks, trajs=trajs, labels=labels:
+                    plot_level_runs(fig.add_subplot(), level, tasks, trajs, labels),
+                    f"{name}: top view, {0 if tasks is None else len(tasks)} tasks, "
+                    f"{len(trajs)} trajectories (solid: truth, dashed: inferred, star: target)",
+                    (9, 6))
+
+
+def _section_maps(page: _Page, maps: "pandas.DataFrame", load_map: MapLoader | None) -> None:
+    page.h2("Learned maps (Fig. 1) and map quality", "maps")
+    if maps.empty:
+        page.note("No fitted maps recorded yet.")
+        return
+    try:
+        from navbench.worldmodel.plots import draw_isometric
+    except ImportError:
+        draw_isometric = None
+    if draw_isometric is None:
+        page.note("Isometric map views skipped: navbench.worldmodel.plots.draw_isometric is not available.")
+    elif load_map is None:
+        page.note("Isometric map views skipped: no map loader given.")
+    else:
+        latest = maps.drop_duplicates("level", keep="last")
+        for _, m in latest.iterrows():
+            try:
+                vmap = load_map(m["map_key"])
+            except Exception as e:  # a missing or collected artifact is a note
+                page.note(f"Map of {m['level']} ({str(m['map_key'])[:12]}) unavailable: {e}")
+                continue
+            page.figure(lambda fig, vmap=vmap: _draw_iso(fig, draw_isometric, vmap),
+                        f"{m['level']}: isometric view of the learned map {str(m['map_key'])[:12]}", (7, 6))
+    cols = ["level", "map_key", "depth_mae_m", "rgb_l1", "slice_precision", "slice_recall",
+            "fit_seconds", "steps", "recorded"]
+    t = maps[cols].copy()
+    t["map_key"] = t["map_key"].map(lambda s: str(s)[:12])
+    t["recorded"] = t["recorded"].dt.strftime("%Y-%m-%d %H:%M:%S")
+    page.table(t, "maps", "Map quality: held-out depth MAE (m), RGB L1, horizontal-slice precision/recall")
+
+
+def _draw_iso(fig, draw_isometric, vmap) -> None:
+    """``draw_isometric`` on a 2D axis, or on a 3D one if it needs that."""
+    ax = fig.add_subplot()
+    try:
+        draw_isometric(ax, vmap)
+    except (AttributeError, TypeError):
+        fig.clear()
+        draw_isometric(fig.add_subplot(projection="3d"), vmap)
+
+
+def _section_bench(page: _Page, bench: "pandas.DataFrame") -> None:
+    page.h2("Benchmark history", "bench")
+    if bench.empty:
+        page.note("No benchmark rows yet (run `navbench bench`).")
+        return
+    t = bench[["recorded", "run_id", "metric", "value", "unit", "device", "host", "cpu",
+               "navbench_version"]].copy()
+    t["recorded"] = t["recorded"].dt.strftime("%Y-%m-%d %H:%M:%S")
+    page.table(t, "bench", "Benchmark rows, oldest first")
+
+
+def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: TrajectoryLoader | None = None,
+                 load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
+                 n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3) -> Path:
+    """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
+
+    Works on any database state (sections without data show a note). ``levels_dir`` holds the
+    ``NAME.json`` level files for the top views.
+    """
+    from navbench import __version__
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    page = _Page(out)
+    runs = db.runs_frame()
+    episodes = select_episodes(db)
+    table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
+    tracking = db.tracking_frame()
+
+    _section_runs(page, runs)
+    _section_spl(page, table)
+    _section_tracking(page, episodes, tracking)
+    _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level)
+    _section_maps(page, db.maps_frame(), load_map)
+    _section_bench(page, db.bench_frame())
+
+    now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+    nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
+        ("runs", "Runs"), ("spl", "SPL"), ("scores", "Scores"), ("tracking", "Tracking"),
+        ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench")))
+    doc = (
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+        "<title>navbench report</title>"
+        f"<style>{_CSS}</style></head><body>\n"
+        "<h1>navbench report: Tracking and Planning with Spatial World Models</h1>\n"
+        f"<p class=\"meta\">Generated {now} by navbench {html.escape(__version__)} from "
+        f"{html.escape(db.display_url)}: {len(runs)} runs, {len(episodes)} episodes, "
+        f"{len(tracking)} tracking rows. CSV files: "
+        + ", ".join(f'<a href="{html.escape(c)}">{html.escape(c)}</a>' for c in page.csvs)
+        + f".</p>\n<nav>{nav}</nav>\n" + "\n".join(page.sections) + "\n</body></html>\n")
+    index = out / "index.html"
+    tmp = out / ".index.html.tmp"
+    tmp.write_text(doc, encoding="utf-8")
+    tmp.replace(index)
+    return index
+
+
+def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryLoader, MapLoader]:
+    """``(load_trajectory, load_map)`` reading verified artifacts of the stage cache: episode
+    records (``episode`` stage) and fitted maps (``fit-map`` stage)."""
+    from navbench.pipeline.cache import ArtifactStore
+
+    store = ArtifactStore(cache_root)
+
+    def load_trajectory(key: str) -> dict:
+        from navbench.pipeline.stages import TRAJ_FILE, load_record
+
+        rec = load_record(store.load("episode", key) / TRAJ_FILE)
+        return {"true_poses": np.asarray(rec.true_poses), "est_poses": np.asarray(rec.est_poses),
+                "target": np.asarray(rec.target)}
+
+    def load_map(key: str):
+        from navbench.pipeline.stages import MAP_FILE
+        from navbench.worldmodel.grid import load_map as _load
+
+        return _load(store.load("fit-map", key) / MAP_FILE)
+
+    return load_trajectory, load_map

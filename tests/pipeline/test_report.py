@@ -1,0 +1,250 @@
+"""The HTML report from a synthetic database: figures embedded, CSVs written, no external
+resources; a headless-Chromium check that every embedded figure decodes."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import subprocess
+import sys
+import types
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from navbench.errors import ArtifactError
+from navbench.pipeline.db import ResultsDB
+from navbench.pipeline.report import build_report
+from navbench.pipeline.score import score_table
+
+from .test_db import FakeTask, episode
+
+TEX = {"kind": "waves", "base": [0.5, 0.5, 0.5], "amp": [0.1, 0.1, 0.1],
+       "waves": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.5]]}
+IMG_RE = re.compile(r'<img [^>]*src="data:image/png;base64,([A-Za-z0-9+/=]+)"')
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def write_level(levels_dir, name="lvA", size=3.0):
+    s = size
+    doc = {"schema_version": 1, "name": name, "seed": 1, "width": s, "depth": s, "height": 1.2,
+           "floor_texture": 0, "ceiling_texture": 0, "textures": [TEX],
+           "walls": [{"a": [0, 0], "b": [s, 0], "thickness": 0.1, "texture": 0},
+                     {"a": [s, 0], "b": [s, s], "thickness": 0.1, "texture": 0},
+                     {"a": [s, s], "b": [0, s], "thickness": 0.1, "texture": 0},
+                     {"a": [0, s], "b": [0, 0], "thickness": 0.1, "texture": 0}],
+           "obstacles": [{"polygon": [[1.2, 1.2], [1.8, 1.2], [1.8, 1.8], [1.2, 1.8]],
+                          "height": 0.4, "texture": 0}],
+           "meta": {}}
+    levels_dir.mkdir(parents=True, exist_ok=True)
+    (levels_dir / f"{name}.json").write_text(json.dumps(doc))
+
+
+def fill_db(db: ResultsDB) -> dict:
+    """Two levels (only lvA has a file), three estimators x two noises x four tasks, tracking
+    and bench rows, one map. Returns the fake trajectories by key."""
+    rid = db.start_run("quick", "all", {"levels": ["lvA", "lvB"]}, "c" * 64)
+    db.record_level("lvA", "hashA", {})
+    db.record_level("lvB", "hashB", {})
+    db.record_map("lvA", "mapA", {"depth_mae_m": 0.03, "rgb_l1": 0.05, "slice_precision": 0.9,
+                                  "slice_recall": 0.8, "fit_seconds": 12.0, "steps": 500})
+    tasks = [FakeTask(i, (0.5, 0.5 + 0.4 * i, 0.0), (2.5, 2.5 - 0.4 * i), 2.6) for i in range(4)]
+    db.record_task_set("lvA", "tsA", tasks)
+    rng = np.random.default_rng(0)
+    rows, trajs = [], {}
+    for level in ("lvA", "lvB"):
+        for est, base in (("ours", 0.9), ("no-map", 0.6), ("dynamics", 0.5)):
+            for noise, drop in (("low", 0.0), ("high", 0.3)):
+                for t in tasks:
+                    ok = bool(rng.random() < base - drop)
+                    key = f"traj-{level}-{est}-{noise}-{t.id}"
+                    rows.append(episode(f"{level}-{est}-{noise}", t.id, level=level, estimator=est,
+                                        noise=noise, task_set_key="tsA" if level == "lvA" else "tsB",
+                                        success=ok, spl_term=float(ok) * rng.uniform(0.7, 1.0),
+                                        loc_rmse_m=float(rng.lognormal(-3, 1)),
+                                        rot_rmse_deg=float(rng.lognormal(0, 1)),
+                                        sim_ms=1.0, render_ms=4.0, estimate_ms=20.0 if est != "dynamics" else 0.1,
+                                        plan_ms=2.0, control_ms=0.2, step_ms=27.0, traj_key=key))
+                    n = 30
+                    s = np.linspace(0, 1, n)[:, None]
+                    true = np.hstack([np.array(t.start[:2]) + s * (np.array(t.target) - t.start[:2]),
+                                      np.zeros((n, 1))])
+                    trajs[key] = {"true_poses": true, "est_poses": true + rng.normal(0, 0.03, true.shape),
+                                  "target": np.array(t.target)}
+    db.add_episodes(rid, rows)
+    db.add_tracking_rows(rid, [dict(study_key="st", level="lvA", estimator=e, trajectory_id=i, seed=0,
+                                    loc_rmse_m=float(rng.lognormal(-3.5, 0.5)),
+                                    rot_rmse_deg=float(rng.lognormal(0, 0.5)), step_ms_median=30.0,
+                                    render_ms=5.0, estimate_ms=25.0)
+                               for e in ("ours", "emission") for i in range(10)])
+    db.add_bench_rows(rid, [dict(metric="render_ms", value=4.2, unit="ms"),
+                            dict(metric="ours_step_ms", value=31.0, unit="ms")])
+    db.finish_run(rid)
+    return trajs
+
+
+def fake_loader(trajs, broken=()):
+    def load(key):
+        if key in broken:
+            raise ArtifactError(f"no episode artifact with key {key[:12]}")
+        return trajs[key]
+    return load
+
+
+@pytest.fixture
+def synthetic(tmp_path):
+    db = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    trajs = fill_db(db)
+    write_level(tmp_path / "levels", "lvA")
+    yield db, trajs, tmp_path
+    db.close()
+
+
+@pytest.fixture
+def fake_isometric(monkeypatch):
+    """A stand-in for navbench.worldmodel.plots.draw_isometric (draws the map's occupancy)."""
+    calls = []
+
+    def draw_isometric(ax, vmap):
+        calls.append(vmap)
+        ax.imshow(vmap["occ"].max(axis=2).T, origin="lower")
+
+    mod = types.ModuleType("navbench.worldmodel.plots")
+    mod.draw_isometric = draw_isometric
+    monkeypatch.setitem(sys.modules, "navbench.worldmodel.plots", mod)
+    return calls
+
+
+def _images(text):
+    return [base64.b64decode(m) for m in IMG_RE.findall(text)]
+
+
+def test_report_embeds_every_figure_and_writes_csvs(synthetic, fake_isometric):
+    db, trajs, tmp = synthetic
+    broken = {"traj-lvA-ours-low-0"}
+    out = tmp / "report"
+    index = build_report(db, out, load_trajectory=fake_loader(trajs, broken),
+                         load_map=lambda key: {"occ": np.random.default_rng(1).random((8, 8, 3))},
+                         levels_dir=tmp / "levels", n_boot=200)
+    assert index == out / "index.html"
+    text = index.read_text()
+    assert text.count("<img ") == text.count('src="data:image/png;base64,') == 5
+    # SPL bars, RMSE CDFs, runtime bars, one level (lvB has no file), one isometric map
+    images = _images(text)
+    assert len(images) == 5
+    from PIL import Image
+    import io
+
+    for png in images:
+        assert png[:8] == b"\x89PNG\r\n\x1a\n"
+        w, h = Image.open(io.BytesIO(png)).size
+        assert w > 100 and h > 100
+    assert len(fake_isometric) == 1
+    # no external resources
+    assert not re.search(r'(src|href)="(https?:)?//', text)
+    assert "<script" not in text and "<link" not in text and "@import" not in text
+    # notes for what could not be drawn
+    assert "lvB: no level file" in text.replace("Level lvB", "lvB")
+    assert "unavailable" in text  # the broken trajectory
+    # CSV files for every table, linked from the page
+    for name in ("runs", "spl_table", "spl_paper", "scores", "tracking_summary", "runtime", "maps", "bench"):
+        assert (out / f"{name}.csv").is_file(), name
+        assert f'href="{name}.csv"' in text
+    spl = pd.read_csv(out / "spl_table.csv", index_col=0)
+    table = score_table(db, n_boot=200)
+    ours_low = table[(table["level"] == "all") & (table["estimator"] == "ours") & (table["noise"] == "low")].iloc[0]
+    assert spl.loc["low", "ours"].startswith(f"{ours_low['spl']:.2f} [")
+    assert list(spl.index) == ["high", "low"]
+    scores = pd.read_csv(out / "scores.csv")
+    assert set(scores["level"]) == {"lvA", "lvB", "all"} and len(scores) == 18
+    tracking = pd.read_csv(out / "tracking_summary.csv")
+    assert set(tracking["estimator"]) == {"ours", "emission"} and set(tracking["trajectories"]) == {10}
+    runtime = pd.read_csv(out / "runtime.csv", index_col=0)
+    assert runtime.loc["ours", "estimate"] == 20.0 and runtime.loc["ours", "step_ms"] == 27.0
+    assert pd.read_csv(out / "bench.csv")["metric"].tolist() == ["render_ms", "ours_step_ms"]
+    assert pd.read_csv(out / "maps.csv")["depth_mae_m"].tolist() == [0.03]
+
+
+def test_report_without_optional_parts(synthetic, monkeypatch):
+    """No loaders, no isometric drawer, episodes-based CDFs: notes instead of figures."""
+    db, _, tmp = synthetic
+    monkeypatch.setitem(sys.modules, "navbench.worldmodel.plots", None)  # import fails
+    index = build_report(db, tmp / "r2", levels_dir=tmp / "levels", n_boot=50)
+    text = index.read_text()
+    assert len(_images(text)) == 4  # SPL, CDFs, runtime, level lvA without trajectories
+    assert "draw_isometric is not available" in text
+    assert "No trajectory loader given" in text
+
+
+def test_report_on_empty_database(tmp_path):
+    with ResultsDB(f"sqlite:///{tmp_path / 'e.db'}") as db:
+        index = build_report(db, tmp_path / "out", levels_dir=tmp_path / "nolevels")
+    text = index.read_text()
+    assert "<img" not in text and "No navigation episodes stored yet" in text
+    assert text.startswith("<!DOCTYPE html>") and text.rstrip().endswith("</html>")
+
+
+def test_report_cli(synthetic, fake_isometric):
+    from navbench.cli.main import app
+
+    db, _, tmp = synthetic
+    out = tmp / "cli-report"
+    res = CliRunner().invoke(app, ["report", "--db", db.url, "--out", str(out), "--levels",
+                                   str(tmp / "levels"), "--cache", str(tmp / "nocache"), "--boot", "50"])
+    assert res.exit_code == 0, res.output
+    text = (out / "index.html").read_text()
+    # the stage cache is empty: trajectories and the map are reported unavailable, figures remain
+    assert "unavailable" in text and len(_images(text)) == 4
+
+
+def test_report_cli_missing_database_is_one_line(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "navbench.cli.main", "report", "--db",
+                           f"sqlite:///{tmp_path / 'none.db'}", "--out", str(tmp_path / "o")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("error: no results database") and proc.stderr.count("\n") == 1
+
+
+CHECK_SCRIPT = """<script>
+window.addEventListener('load', function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0 && i.naturalHeight > 0; });
+  var m = document.createElement('pre');
+  m.id = 'nb-check';
+  m.textContent = 'NBCHECK images=' + imgs.length + ' decoded=' + ok.length + ' END';
+  document.body.appendChild(m);
+});
+</script>"""
+
+
+def run_chromium(args, tmp_path, timeout=180):
+    profile = tmp_path / "chromium-profile"
+    cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           "--disable-dev-shm-usage", f"--user-data-dir={profile}", "--virtual-time-budget=10000", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.mark.browser
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (apt-get install chromium)")
+def test_report_renders_in_headless_chromium(synthetic, fake_isometric):
+    db, trajs, tmp = synthetic
+    out = tmp / "report"
+    index = build_report(db, out, load_trajectory=fake_loader(trajs),
+                         load_map=lambda key: {"occ": np.ones((4, 4, 2))},
+                         levels_dir=tmp / "levels", n_boot=50)
+    text = index.read_text()
+    n = len(_images(text))
+    assert n == 5
+    # a copy of the page with a probe that records, after load, how many images decoded
+    probe = out / "probe.html"
+    probe.write_text(text.replace("</body>", CHECK_SCRIPT + "</body>"))
+    proc = run_chromium(["--dump-dom", probe.as_uri()], tmp)
+    found = re.search(r"NBCHECK images=(\d+) decoded=(\d+) END", proc.stdout)
+    assert found, f"probe marker missing; chromium rc={proc.returncode} stderr={proc.stderr[-500:]}"
+    assert (int(found.group(1)), int(found.group(2))) == (n, n)
+    assert "navbench report" in proc.stdout
