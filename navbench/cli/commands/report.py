@@ -19,9 +19,7 @@ def report(
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
-    Sections: runs; SPL by estimator and noise (Fig. 5a); scores; RMSE CDFs and per-step runtime
-    (Fig. 4); levels with tasks and trajectories (Fig. 3); learned maps (Fig. 1) and map quality;
-    benchmark history.
+    Runs, SPL (Fig. 5a), scores, RMSE CDFs + runtime (Fig. 4), levels (Fig. 3), maps (Fig. 1).
     """
     from navbench.pipeline.db import ResultsDB
     from navbench.pipeline.report import build_report, store_loaders
