@@ -11,8 +11,9 @@ End reasons (``EpisodeRecord.end_reason``):
 
 * ``"reached"``: the controller has reached every waypoint (the last one is the target, or the
   A* lattice point within the SPEC's goal test) and the estimate is within
-  ``goal_tolerance`` (1.05 L: the SPEC's A* goal test 0.8 L plus the waypoint tolerance) of
-  the target: the agent *believes* it
+  ``goal_tolerance`` (1.3 L: the SPEC's A* goal test 0.8 L plus the controller's waypoint
+  tolerance 0.5 L) of the target. Usually the last waypoint is the target itself, so the agent
+  believes it is within 0.5 L of it: the agent *believes* it
   arrived. Success is scored later from the true pose (:mod:`navbench.nav.metrics`);
 * ``"stuck"``: the simulator reported a collision; movement is prohibited for the rest of the
   episode (appendix D), so the episode ends at once;
@@ -46,8 +47,8 @@ class EpisodeConfig:
     max_steps: int = 500  # controls per episode
     # believed arrival: the estimate within this distance (m) of the target once every waypoint
     # is reached; the SPEC's A* goal test (0.8 L) plus the controller's waypoint tolerance
-    # (0.25 L), since the last waypoint may be the A* lattice point within 0.8 L of the target
-    goal_tolerance: float = 1.05 * AGENT_LENGTH
+    # (0.5 L), since the last waypoint may be the A* lattice point within 0.8 L of the target
+    goal_tolerance: float = 1.3 * AGENT_LENGTH
     max_replans: int = 10  # replans allowed before the episode ends as "no-plan"
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)

@@ -246,3 +246,29 @@ def find_task_file(level_name: str, count: int | None = None, root=".") -> Path:
     if not hits:
         raise TaskError(f"no task file tasks/{pat}; run `navbench sample-tasks {level_name}`")
     return hits[-1]
+
+
+def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out_dir=None,
+                   root=".") -> tuple[Path, TaskSet]:
+    """Sample ``count`` tasks for a level file and write the task file; return its path and content.
+
+    The level is resolved by name (``<root>/levels/<name>.json``) or path; its file text's
+    sha256 goes into the task file. ``out_dir`` defaults to ``<root>/tasks``.
+    """
+    from navbench.level import level_from_dict, level_path
+
+    p = Path(level_name_or_path)
+    if not (p.suffix == ".json" or p.is_file()):
+        p = level_path(level_name_or_path, root)
+    if not p.is_file():
+        raise TaskError(f"{p}: no such level file")
+    text = p.read_text()
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise TaskError(f"{p}: not valid JSON ({e})") from None
+    level = level_from_dict(doc, str(p))
+    tasks = sample_tasks(level, count, seed)
+    out = save_tasks(Path(out_dir) if out_dir is not None else Path(root) / "tasks", level.name, tasks,
+                     level_hash=level_sha256(text), seed=seed)
+    return out, TaskSet(level.name, level_sha256(text), seed, tuple(tasks))

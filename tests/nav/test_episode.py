@@ -30,19 +30,21 @@ def _episode(level, task, estimator="gt", noise="none", seed=0, occ=None, config
 
 def test_straight_shot_in_an_open_room_has_spl_one():
     level = open_room()
-    # facing the target 3.6056 m away: 22 full steps of 0.16 m and one of 0.0856 m
-    task = Task(0, (1.0, 1.0, math.atan2(2.0, 3.0)), (4.0, 3.0), math.sqrt(13.0))
+    # facing the target 3.6056 m away: 22 full steps of 0.16 m leave 0.0856 m, within the
+    # waypoint tolerance (0.5 L = 0.1 m), so the agent stops there
+    heading = math.atan2(2.0, 3.0)
+    task = Task(0, (1.0, 1.0, heading), (4.0, 3.0), math.sqrt(13.0))
     rec = _episode(level, task)
     assert rec.end_reason == "reached" and rec.plan_status == "shortcut" and not rec.collided
-    assert rec.steps == 23
-    np.testing.assert_allclose(rec.controls[:22, 2], MAX_STEP)
-    assert rec.controls[22, 2] == pytest.approx(math.sqrt(13.0) - 22 * MAX_STEP)
-    np.testing.assert_allclose(rec.true_poses[-1, :2], (4.0, 3.0), atol=1e-9)
+    assert rec.steps == 22
+    np.testing.assert_allclose(rec.controls[:, 2], MAX_STEP)
+    end = np.array([1.0, 1.0]) + 22 * MAX_STEP * np.array([math.cos(heading), math.sin(heading)])
+    np.testing.assert_allclose(rec.true_poses[-1, :2], end, atol=1e-9)
     np.testing.assert_array_equal(rec.true_poses, rec.est_poses)
     s = score_episode(rec)
     assert s.success and s.spl_term == pytest.approx(1.0) and s.loc_rmse_m == 0.0
     assert set(rec.timings_ms) == {"sim", "render", "estimate", "plan", "control"}
-    assert all(len(v) == 23 for v in rec.timings_ms.values())
+    assert all(len(v) == 22 for v in rec.timings_ms.values())
     assert rec.level == "open" and rec.estimator == "gt" and rec.noise == "none"
 
 
@@ -50,8 +52,8 @@ def test_turns_first_then_walks():
     level = open_room()
     task = Task(1, (1.0, 1.0, 0.0), (1.0, 1.0 + math.sqrt(13.0)), math.sqrt(13.0))
     rec = _episode(level, task)
-    # 90 deg: seven turns of 11.5 deg and one of 9.5 deg, then 23 steps
-    assert rec.steps == 31
+    # 90 deg: seven turns of 11.5 deg and one of 9.5 deg, then 22 steps
+    assert rec.steps == 30
     np.testing.assert_allclose(rec.controls[:7, 0], math.radians(11.5))
     assert rec.controls[7, 0] == pytest.approx(math.radians(9.5))
     assert np.all(rec.controls[:8, 2] == 0.0)

@@ -81,3 +81,19 @@ def test_unreachable_and_blocked_points_raise_task_error():
         shortest_path(level, (1.5, 2.0), (4.5, 2.0))
     with pytest.raises(TaskError, match="not free"):
         shortest_path(level, (3.0, 2.0), (4.5, 2.0))  # inside the dividing wall
+
+
+def test_path_through_a_door_is_feasible_and_tight():
+    # the polyline never overlaps a solid (swept exactly by the simulator's collision world with a
+    # slightly smaller disc) and touches one (tight), so it is the shortest path, not a detour
+    from navbench.sim.world import CollisionWorld
+
+    from .levels import door_rooms
+
+    level = door_rooms()
+    length, poly = shortest_path(level, (1.0, 3.5), (5.0, 3.5))
+    world = CollisionWorld(level, radius=0.0995)
+    assert not any(world.sweep(a, b)[1] for a, b in zip(poly[:-1], poly[1:]))
+    assert min(CollisionWorld(level).clearance(p) for p in poly[1:-1]) == pytest.approx(0.1, abs=1e-3)
+    assert length == pytest.approx(np.sum(np.linalg.norm(np.diff(poly, axis=0), axis=1)))
+    assert length > math.dist((1.0, 3.5), (5.0, 3.5))

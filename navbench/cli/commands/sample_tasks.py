@@ -1,0 +1,30 @@
+"""``navbench sample-tasks LEVEL``: sample the benchmark's navigation tasks and write the task file."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console
+
+
+def sample_tasks_cmd(
+    level: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
+    count: int = typer.Option(200, "--count", min=1, help="Number of tasks."),
+    seed: int = typer.Option(0, "--seed", help="Sampling seed."),
+    out: str = typer.Option(None, "--out", help="Output directory (default: tasks/)."),
+):
+    """Sample start/target pairs (1.2 L clearance, > 3 L apart, reachable) with exact optimal lengths."""
+    import numpy as np
+
+    from navbench.plan.tasks import make_task_file
+
+    path, ts = make_task_file(level, count=count, seed=seed, out_dir=out)
+    lengths = np.array([t.optimal_length for t in ts.tasks])
+    console.print(f"wrote {path}")
+    console.print(f"{ts.count} tasks in {ts.level} (seed {seed}, level sha256 {ts.level_sha256[:12]}): "
+                  f"optimal length min {lengths.min():.2f} m, median {np.median(lengths):.2f} m, "
+                  f"max {lengths.max():.2f} m", soft_wrap=True)
+
+
+def register(app: typer.Typer) -> None:
+    app.command("sample-tasks")(sample_tasks_cmd)
