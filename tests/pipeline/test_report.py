@@ -111,7 +111,8 @@ def fake_isometric(monkeypatch):
 
     def draw_isometric(ax, vmap):
         calls.append(vmap)
-        ax.imshow(vmap["occ"].max(axis=2).T, origin="lower")
+        occ = vmap.occ if hasattr(vmap, "occ") else vmap["occ"]
+        ax.imshow(occ.max(axis=2).T, origin="lower")
 
     mod = types.ModuleType("navbench.worldmodel.plots")
     mod.draw_isometric = draw_isometric
@@ -248,3 +249,49 @@ def test_report_renders_in_headless_chromium(synthetic, fake_isometric):
     assert found, f"probe marker missing; chromium rc={proc.returncode} stderr={proc.stderr[-500:]}"
     assert (int(found.group(1)), int(found.group(2))) == (n, n)
     assert "navbench report" in proc.stdout
+
+
+def test_report_from_real_records_through_the_stage_cache(tmp_path, fake_isometric):
+    """EpisodeRecord -> score_episode -> episodes row; trajectory and map as verified cache
+    artifacts read back by store_loaders (the path `navbench report` takes)."""
+    from navbench.nav.episode import EpisodeRecord
+    from navbench.nav.metrics import score_episode
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.pipeline.db import episode_row_from_score
+    from navbench.pipeline.report import store_loaders
+    from navbench.pipeline.stages import MAP_FILE, TRAJ_FILE, save_record
+    from navbench.worldmodel.grid import GridSpec, VoxelMap, save_map
+
+    store = ArtifactStore(tmp_path / "cache")
+    t = np.linspace(0, 1, 21)
+    true = np.stack([0.5 + 2 * t, 0.5 + 2 * t, np.full_like(t, np.pi / 4)], axis=1)
+    rec = EpisodeRecord(level="lvA", task_id=0, estimator="ours", noise="low", seed=0,
+                        start=true[0], target=np.array([2.5, 2.5]), optimal_length=2.9,
+                        true_poses=true, est_poses=true + 0.01, controls=np.zeros((20, 3)),
+                        collided=False, collision_step=-1, plan=np.zeros((0, 2)), replans=0,
+                        end_reason="reached",
+                        timings_ms={k: np.full(20, 1.0) for k in ("sim", "render", "estimate", "plan", "control")})
+    store.write("episode", "ek" * 32, lambda d: save_record(rec, d / TRAJ_FILE),
+                config={"cell": "c"}, inputs={}, version=1)
+    vmap = VoxelMap(GridSpec((0, 0, 0), (3, 3, 1.2), (6, 6, 3)), np.zeros((6, 6, 3)), np.zeros((6, 6, 3, 3)))
+    store.write("fit-map", "mk" * 32, lambda d: save_map(vmap, d / MAP_FILE), config={}, inputs={}, version=1)
+
+    score = score_episode(rec)
+    meta = dict(level="lvA", map_key="mk" * 32, task_set_key="tsA", estimator="ours",
+                estimator_options={}, noise="low", seed=0, task_id=0, timings_ms=rec.timings_ms)
+    with ResultsDB(f"sqlite:///{tmp_path / 'r.db'}") as db:
+        rid = db.start_run("quick", "run-navigation", {}, "h")
+        db.record_level("lvA", "hashA", {})
+        db.record_map("lvA", "mk" * 32, {"depth_mae_m": 0.1})
+        assert db.add_episodes(rid, [episode_row_from_score("c", meta, score, "ek" * 32)]) == 1
+        row = db.episodes_frame().iloc[0]
+        assert bool(row["success"]) and row["step_ms"] == pytest.approx(5.0)
+        assert row["end_reason"] == "reached" and not bool(row["collided"])
+        write_level(tmp_path / "levels", "lvA")
+        load_trajectory, load_map = store_loaders(tmp_path / "cache")
+        assert np.allclose(load_trajectory("ek" * 32)["est_poses"], true + 0.01)
+        index = build_report(db, tmp_path / "out", load_trajectory, load_map,
+                             levels_dir=tmp_path / "levels", n_boot=50)
+    text = index.read_text()
+    assert "1 trajectories" in text and "unavailable" not in text
+    assert len(fake_isometric) == 1 and isinstance(fake_isometric[0], VoxelMap)
