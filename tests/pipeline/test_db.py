@@ -67,6 +67,10 @@ def db(request, tmp_path):
         pytest.skip("NAVBENCH_TEST_PG_URL is not set (no PostgreSQL server to test against)")
     from sqlalchemy import create_engine, text
 
+    try:
+        import psycopg  # noqa: F401
+    except ImportError:
+        pytest.fail("NAVBENCH_TEST_PG_URL is set but psycopg is missing: pip install -e '.[postgres]'")
     schema = f"nbtest_{uuid.uuid4().hex[:12]}"
     admin = create_engine(PG_URL)
     with admin.begin() as conn:
