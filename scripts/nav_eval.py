@@ -3,8 +3,10 @@
     .venv/bin/python scripts/nav_eval.py house-1 --estimators gt,dynamics --noise low,mid,high --tasks 200
 
 The map the agent plans on is the TRUE occupancy raster (0.057 m cells, every solid) with
-``--map true`` (the default) or the occupancy band of a fitted world-model map file
-(``--map FILE``, see :func:`navbench.worldmodel.grid.occupancy_slice`). The simulator runs without
+``--map true`` (the default), the occupancy band of the true geometry voxelised on the world
+model's grid (``--map voxel``, :func:`navbench.worldmodel.grid.voxelize_level`), or the
+occupancy band of a fitted world-model map file (``--map FILE``, see
+:func:`navbench.worldmodel.grid.occupancy_slice`). The simulator runs without
 a camera (``intrinsics=None``) unless an estimator needs images (``--camera half|paper``).
 Episode ``k`` of a task set uses the simulator seed ``--seed * 100003 + task.id``, the same for
 every estimator. Writes nothing; prints a table.
@@ -34,8 +36,11 @@ def planning_map(level, spec: str):
     if spec == "true":
         occ, xs, ys = occupancy_raster(level, TRUE_MAP_CELL, z_low=0.05)
         return occ, xs, ys, f"TRUE occupancy raster ({TRUE_MAP_CELL} m cells)"
-    from navbench.worldmodel.grid import load_map, occupancy_slice
+    from navbench.worldmodel.grid import load_map, occupancy_slice, voxelize_level
 
+    if spec == "voxel":
+        occ, xs, ys = occupancy_slice(voxelize_level(level), mode="band")
+        return occ, xs, ys, "TRUE geometry voxelised on the 200 x 200 x 20 grid (occupancy band)"
     vmap = load_map(spec)
     occ, xs, ys = occupancy_slice(vmap, mode="band")
     return occ, xs, ys, f"world-model map {spec} (occupancy band)"
@@ -59,7 +64,7 @@ def main(argv=None) -> None:
     ap.add_argument("--estimators", default="gt,dynamics")
     ap.add_argument("--noise", default="low,mid,high")
     ap.add_argument("--tasks", type=int, default=200, help="use the first N tasks of the task file")
-    ap.add_argument("--map", default="true", help="'true' or a map file")
+    ap.add_argument("--map", default="true", help="'true', 'voxel' or a map file")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--task-file", default=None, help="default: the committed tasks/<level>-200-*.json")
     args = ap.parse_args(argv)

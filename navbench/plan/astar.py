@@ -10,7 +10,9 @@ distance to the goal. A move is allowed when
 * the point stepped into is at least ``safety`` (1.2 L) from every occupied point of the slice:
   the occupied points are the occupied cells' centres, and the distance is read at the nearest
   cell from a Euclidean distance transform computed once per map (so it is exact at cell
-  centres and within half a cell diagonal elsewhere).
+  centres and within half a cell diagonal elsewhere). One addition (``escape``): from a point
+  inside that margin (a start next to an inflated obstacle of a learned map) a move may also
+  step into a point of strictly larger clearance, so the search can leave the margin.
 
 The search stops at the first expanded lattice point within ``goal_tolerance`` (0.8 L) of the
 goal. The waypoints are the lattice points after the start, followed by the goal itself when
@@ -46,6 +48,10 @@ class PlannerConfig:
     goal_tolerance: float = 0.8 * AGENT_LENGTH  # search stops within this distance (m) of the goal
     edge_samples: int = 100  # points checked on every move
     shortcut: bool = True  # try the straight line first
+    # an addition to the paper: from a point closer than ``safety`` to the map's obstacles (a
+    # start inside the margin of an inflated learned map), moves that strictly increase the
+    # clearance are allowed until the margin is left; False: such a start has no plan
+    escape: bool = True
     max_expansions: int = 200_000  # give up ("no-plan") after this many expansions
 
 
@@ -145,7 +151,7 @@ def _line_ok(occ, clear, x0, y0, cell, ax, ay, bx, by, n, min_clear):
 
 
 @njit(cache=True)
-def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_samples, max_exp):
+def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_samples, max_exp, escape):
     """Lattice A*; returns (path lattice offsets (K, 2) int64 from the start, expansions).
 
     K = 0 means no path. The lattice point (i, j) is at (sx + i * step, sy + j * step).
@@ -178,6 +184,8 @@ def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_s
         expansions += 1
         px = sx + (ci + imin) * step
         py = sy + (cj + jmin) * step
+        cx_, cy_ = _cell(occ, x0, y0, cell, px, py)
+        here = clear[cx_, cy_] if cx_ >= 0 else 0.0
         if math.sqrt((px - gx) ** 2 + (py - gy) ** 2) <= goal_tol:
             goal = node
             break
@@ -190,7 +198,9 @@ def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_s
             qx = sx + (ni_ + imin) * step
             qy = sy + (nj_ + jmin) * step
             ix, iy = _cell(occ, x0, y0, cell, qx, qy)
-            if ix < 0 or occ[ix, iy] or clear[ix, iy] < safety:
+            if ix < 0 or occ[ix, iy]:
+                continue
+            if clear[ix, iy] < safety and not (escape and here < safety and clear[ix, iy] > here):
                 continue
             cost = step if k < 4 else step * math.sqrt(2.0)
             ng = gc + cost
@@ -240,7 +250,7 @@ def plan_on_map(pmap: PlannerMap, start_xy, goal_xy) -> Plan:
     path, expansions = _astar(pmap.occ, pmap.clearance, pmap.x0, pmap.y0, pmap.cell,
                               float(s[0]), float(s[1]), float(t[0]), float(t[1]),
                               float(cfg.step), float(cfg.safety), float(cfg.goal_tolerance),
-                              int(cfg.edge_samples), int(cfg.max_expansions))
+                              int(cfg.edge_samples), int(cfg.max_expansions), bool(cfg.escape))
     if len(path) == 0:
         return Plan(None, "no-plan", int(expansions))
     pts = s[None, :] + path[1:].astype(np.float64) * cfg.step

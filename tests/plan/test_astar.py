@@ -101,3 +101,19 @@ def test_planner_map_validates_shapes():
     pm = make_planner_map(occ, xs, ys)
     assert pm.clearance[3, 3] == 0.0 and pm.clearance[5, 3] == pytest.approx(2 * STEP)
     assert pm.clearance[4, 4] == pytest.approx(math.sqrt(2) * STEP)
+
+
+def test_escape_from_a_start_inside_the_safety_margin():
+    # a start 0.05 m from the occupied centres: its neighbours are inside the 0.24 m margin too
+    cell = 0.05
+    occ, xs, ys = _grid(60, 60, cell)
+    occ[:, 0:20] = True  # a solid band y < 1.0; occupied centres up to y = 0.975
+    start, goal = (1.0, 1.025), (2.0, 2.5)
+    strict = PlannerConfig(shortcut=False, escape=False)
+    assert plan_path(occ, xs, ys, start, goal, strict).status == "no-plan"
+    plan = plan_path(occ, xs, ys, start, goal, PlannerConfig(shortcut=False))
+    assert plan.status == "astar"
+    # the clearance grows along the path until the margin is left
+    d = plan.waypoints[:, 1] - 0.975
+    first_safe = int(np.argmax(d >= 0.24))
+    assert np.all(np.diff(d[: first_safe + 1]) > 0) and np.all(d[first_safe:] >= 0.24 - cell)
