@@ -48,6 +48,7 @@ from sqlalchemy import (
     ForeignKey,
     Integer,
     String,
+    Text,
     UniqueConstraint,
     create_engine,
     event,
@@ -65,6 +66,8 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas
 
 DEFAULT_DB_URL = "sqlite:///results/navbench.db"
+#: Version of the table layout; a database written with another version is refused.
+SCHEMA_VERSION = 1
 DB_ENV = "NAVBENCH_DB"
 TIMING_COMPONENTS = ("sim", "render", "estimate", "plan", "control")
 RUN_STATUSES = ("running", "done", "failed", "interrupted")
@@ -83,17 +86,25 @@ class Base(DeclarativeBase):
     pass
 
 
+class MetaRow(Base):
+    """Key/value facts about the database itself (``schema_version``)."""
+
+    __tablename__ = "navbench_meta"
+    key: Mapped[str] = mapped_column(String(64), primary_key=True)
+    value: Mapped[str] = mapped_column(String(256))
+
+
 class Run(Base):
     __tablename__ = "runs"
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    profile: Mapped[str] = mapped_column(String(64))
-    command: Mapped[str] = mapped_column(String(256))
+    profile: Mapped[str] = mapped_column(String(512))  # a name or a path to a profile file
+    command: Mapped[str] = mapped_column(Text)
     config: Mapped[dict] = mapped_column(JSON)
-    config_hash: Mapped[str] = mapped_column(String(64))
+    config_hash: Mapped[str] = mapped_column(String(128))
     navbench_version: Mapped[str] = mapped_column(String(32))
     git_commit: Mapped[str | None] = mapped_column(String(64), nullable=True)
     host: Mapped[str] = mapped_column(String(256))
-    cpu: Mapped[str] = mapped_column(String(256))
+    cpu: Mapped[str] = mapped_column(String(512))
     started: Mapped[datetime] = mapped_column(DateTime(timezone=True))
     finished: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     status: Mapped[str] = mapped_column(String(16))
@@ -406,6 +417,17 @@ class ResultsDB:
         except SQLAlchemyError as e:
             self.engine.dispose()
             raise DatabaseError(f"cannot open results database {self.display_url}: {_one_line(e)}") from None
+        self._check_schema_version()
+
+    def _check_schema_version(self) -> None:
+        with self._begin() as conn:
+            self._insert_ignore(conn, MetaRow, [{"key": "schema_version", "value": str(SCHEMA_VERSION)}],
+                                ("key",))
+            found = conn.execute(select(MetaRow.value).where(MetaRow.key == "schema_version")).scalar()
+        if found != str(SCHEMA_VERSION):
+            self.engine.dispose()
+            raise DatabaseError(f"results database {self.display_url} has schema version {found}; "
+                                f"this navbench reads version {SCHEMA_VERSION}")
 
     def __repr__(self) -> str:
         return f"ResultsDB({self.display_url!r})"
@@ -453,7 +475,7 @@ class ResultsDB:
                 stmt = dialect_insert(table).values(rows[i:i + chunk]).on_conflict_do_nothing(
                     index_elements=list(keys))
                 if dialect == "postgresql":  # psycopg reports no rowcount here: count RETURNING
-                    inserted += len(conn.execute(stmt.returning(table.c.id)).all())
+                    inserted += len(conn.execute(stmt.returning(*table.primary_key.columns)).all())
                 else:
                     inserted += conn.execute(stmt).rowcount
             return inserted

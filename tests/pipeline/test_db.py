@@ -277,3 +277,16 @@ def test_read_only_open_of_a_missing_sqlite_file(tmp_path):
     assert not (tmp_path / "missing.db").exists()
     ResultsDB(f"sqlite:///{tmp_path / 'made.db'}").close()
     ResultsDB(f"sqlite:///{tmp_path / 'made.db'}", create=False).close()
+
+
+def test_schema_version_is_recorded_and_checked(tmp_path):
+    from sqlalchemy import text
+
+    url = f"sqlite:///{tmp_path / 'v.db'}"
+    d = ResultsDB(url)
+    with d.engine.begin() as conn:
+        assert conn.execute(text("SELECT value FROM navbench_meta WHERE key='schema_version'")).scalar() == "1"
+        conn.execute(text("UPDATE navbench_meta SET value='99' WHERE key='schema_version'"))
+    d.close()
+    with pytest.raises(DatabaseError, match="schema version 99"):
+        ResultsDB(url)
