@@ -75,11 +75,13 @@ def db(request, tmp_path):
     admin = create_engine(PG_URL)
     with admin.begin() as conn:
         conn.execute(text(f'CREATE SCHEMA "{schema}"'))
-    d = ResultsDB(_pg_schema_url(PG_URL, schema))
+    d = None
     try:
+        d = ResultsDB(_pg_schema_url(PG_URL, schema))
         yield d
     finally:
-        d.close()
+        if d is not None:
+            d.close()
         with admin.begin() as conn:
             conn.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
         admin.dispose()
