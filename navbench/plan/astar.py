@@ -47,6 +47,11 @@ class PlannerConfig:
     safety: float = 1.2 * AGENT_LENGTH  # min distance (m) of a stepped-into point from occupied points
     goal_tolerance: float = 0.8 * AGENT_LENGTH  # search stops within this distance (m) of the goal
     edge_samples: int = 100  # points checked on every move
+    # tie-break (m added per change of move direction): among the many equally long lattice
+    # paths, prefer the one with the fewest turns (a staircase of alternating straight and
+    # diagonal moves costs the controller a turn in place at every step); small enough that it
+    # never trades length for fewer turns by more than turn_penalty per turn
+    turn_penalty: float = 1e-4
     shortcut: bool = True  # try the straight line first
     # an addition to the paper: from a point closer than ``safety`` to the map's obstacles (a
     # start inside the margin of an inflated learned map), moves that strictly increase the
@@ -151,7 +156,8 @@ def _line_ok(occ, clear, x0, y0, cell, ax, ay, bx, by, n, min_clear):
 
 
 @njit(cache=True)
-def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_samples, max_exp, escape):
+def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_samples, max_exp, escape,
+           turn_penalty):
     """Lattice A*; returns (path lattice offsets (K, 2) int64 from the start, expansions).
 
     K = 0 means no path. The lattice point (i, j) is at (sx + i * step, sy + j * step).
@@ -166,6 +172,7 @@ def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_s
     ni, nj = imax - imin + 1, jmax - jmin + 1
     g = np.full((ni, nj), np.inf)
     parent = np.full((ni, nj), -1, np.int64)
+    move = np.full((ni, nj), -1, np.int64)  # direction of the move that reached a node
     closed = np.zeros((ni, nj), np.bool_)
     si, sj = -imin, -jmin
     g[si, sj] = 0.0
@@ -203,6 +210,8 @@ def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_s
             if clear[ix, iy] < safety and not (escape and here < safety and clear[ix, iy] > here):
                 continue
             cost = step if k < 4 else step * math.sqrt(2.0)
+            if move[ci, cj] >= 0 and move[ci, cj] != k:
+                cost += turn_penalty
             ng = gc + cost
             if ng >= g[ni_, nj_]:
                 continue
@@ -210,6 +219,7 @@ def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_s
                 continue
             g[ni_, nj_] = ng
             parent[ni_, nj_] = node
+            move[ni_, nj_] = k
             h = math.sqrt((qx - gx) ** 2 + (qy - gy) ** 2)
             heapq.heappush(heap, (ng + h, ng, ni_ * nj + nj_))
     if goal < 0:
@@ -250,7 +260,8 @@ def plan_on_map(pmap: PlannerMap, start_xy, goal_xy) -> Plan:
     path, expansions = _astar(pmap.occ, pmap.clearance, pmap.x0, pmap.y0, pmap.cell,
                               float(s[0]), float(s[1]), float(t[0]), float(t[1]),
                               float(cfg.step), float(cfg.safety), float(cfg.goal_tolerance),
-                              int(cfg.edge_samples), int(cfg.max_expansions), bool(cfg.escape))
+                              int(cfg.edge_samples), int(cfg.max_expansions), bool(cfg.escape),
+                              float(cfg.turn_penalty))
     if len(path) == 0:
         return Plan(None, "no-plan", int(expansions))
     pts = s[None, :] + path[1:].astype(np.float64) * cfg.step

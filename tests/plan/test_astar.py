@@ -38,6 +38,9 @@ def test_free_grid_cost_is_octile_distance():
     # 5 right, 2 up: 2 diagonal + 3 straight moves
     assert _cost(_centre(1, 1), plan.waypoints) == pytest.approx((2 * math.sqrt(2) + 3) * STEP)
     np.testing.assert_allclose(plan.waypoints[-1], _centre(6, 3))
+    # of the equally long paths, the tie-break picks one with a single turn (no staircase)
+    moves = np.diff(np.vstack([_centre(1, 1), plan.waypoints]), axis=0)
+    assert np.count_nonzero(np.any(np.abs(np.diff(moves, axis=0)) > 1e-9, axis=1)) == 1
 
 
 def test_wall_with_gap_optimal_cost():
