@@ -106,6 +106,9 @@ class RayExecutor:
         self._started = False
 
     def __enter__(self):
+        return self  # Ray starts on the first chunk: a fully cached rerun never starts it
+
+    def _ensure_started(self) -> None:
         if not self.ray.is_initialized():
             kw: dict[str, Any] = {"ignore_reinit_error": True, "include_dashboard": False,
                                   "log_to_driver": False}
@@ -117,14 +120,15 @@ class RayExecutor:
             self._started = True
         if not self.workers:
             self.workers = max(1, int(self.ray.cluster_resources().get("CPU", 1)))
-        return self
 
     def __exit__(self, *exc):
         if self._started:
             self.ray.shutdown()
+            self._started = False
         return False
 
     def map_unordered(self, fn: Callable, items: Iterable) -> Iterator[Any]:
+        self._ensure_started()
         remote = self.ray.remote(num_cpus=1)(fn)
         it = iter(items)
         pending = []

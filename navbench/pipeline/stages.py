@@ -47,7 +47,9 @@ class StageContext:
     """What every stage needs besides its config.
 
     ``force``: stage names to recompute even when cached (``{"*"}`` = all).
-    ``progress(description, total) -> advance(n)``: a progress-bar factory (no-op by default).
+    ``progress(description, total) -> update``: a progress-bar factory (no-op by default);
+    ``update(done, total=None, loss=None)`` sets the bar to ``done`` items (``loss``: shown
+    for fits). It matches the ``progress`` callbacks of ``collect_views`` and ``fit_map``.
     ``levels_dir`` / ``tasks_dir``: where committed level and task files are looked up.
     """
 
@@ -154,20 +156,20 @@ class ViewsConfig:
             raise ConfigError(f"unknown camera {self.camera!r}; choose half or paper")
 
 
-VIEWS_FILE = "views.npz"
+VIEWS_FILE = "views"   # a directory of .npy files (memory-mapped on load)
 
 
 def collect_views_stage(ctx: StageContext, level: Ref, cfg: ViewsConfig) -> Ref:
-    """Collect views of ``level`` into the cache (``views.npz``, see
+    """Collect views of ``level`` into the cache (the ``views/`` directory of
     :func:`navbench.worldmodel.views.save_views`)."""
 
     def compute(d: Path) -> None:
         from navbench.geometry import camera_by_name
         from navbench.worldmodel.views import collect_views, save_views
 
-        advance = ctx.progress(f"views {level.name}", cfg.count)
+        update = ctx.progress(f"views {level.name} (seed {cfg.seed})", cfg.count)
         views = collect_views(load_level_ref(level), cfg.count, camera_by_name(cfg.camera), cfg.seed,
-                              progress=advance)
+                              progress=update)
         save_views(views, d / VIEWS_FILE)
 
     path, key, cached = ctx.run("collect-views", cfg, {"level": level.key}, compute)
@@ -219,12 +221,13 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
         from navbench.worldmodel.views import load_views
 
         train = load_views(views.path)
-        advance = ctx.progress(f"fit {level.name}", fit_cfg.steps)
-        vmap, metrics = fit_map(train, fit_cfg, progress=advance)
+        update = ctx.progress(f"fit {level.name}", fit_cfg.steps)
+        vmap, metrics = fit_map(train, fit_cfg, progress=update)
         del train
         held = load_views(eval_views.path)
-        quality = evaluate_map(vmap, held, level=load_level_ref(level))
+        quality = evaluate_map(vmap, load_level_ref(level), held)
         out = {**dict(metrics), **dict(quality)}
+        out.setdefault("fit_seconds", out.get("fit_time_s"))
         out.setdefault("steps", fit_cfg.steps)
         out["eval_views"] = int(cfg.eval_count)
         save_map(vmap, d / MAP_FILE)
@@ -355,13 +358,19 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
 
 def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:
     """collect-views (train and held-out) -> fit-map for one level with ``profile``'s settings."""
+    camera = profile.camera
     if views_key:
         stage, key = ctx.store.find(views_key, "collect-views")
         p = ctx.store.load(stage, key)
+        man = json.loads((p / "manifest.json").read_text())
+        if man.get("inputs", {}).get("level") != level.key:
+            raise ArtifactError(f"views {key[:12]} were not collected on level {level.name} "
+                                f"(level key {level.key[:12]})")
+        camera = man.get("config", {}).get("camera", camera)
         views = Ref(stage, key, p / VIEWS_FILE, True, level.name)
     else:
-        views = collect_views_stage(ctx, level, ViewsConfig(profile.views, profile.camera, profile.views_seed))
-    held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, profile.camera, profile.eval_seed))
+        views = collect_views_stage(ctx, level, ViewsConfig(profile.views, camera, profile.views_seed))
+    held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed))
     return fit_map_stage(ctx, level, views, held, FitMapConfig(
         profile.fit_steps, profile.fit_seed, dict(profile.fit), profile.eval_views, profile.eval_seed))
 
@@ -751,16 +760,18 @@ REPORT_INDEX = "index.html"
 
 
 def report_stage(ctx: StageContext, cells: list[Cell], score: Ref) -> Ref:
-    """The HTML report (:func:`navbench.pipeline.report.build_report`), cached by the score
-    artifact and the stored episodes."""
+    """The HTML report (:func:`navbench.pipeline.report.build_report`) with trajectories and maps
+    read from this store, cached by the score artifact and the cells' stored episodes (so a
+    rerun that adds nothing does not redraw it; its run list is as of the last redraw)."""
     state = episodes_state_key(ctx, cells)
 
     def compute(d: Path) -> None:
-        from navbench.pipeline.report import build_report
+        from navbench.pipeline.report import build_report, store_loaders
 
-        index = Path(build_report(ctx.db, ctx.store, d))
-        if index.name != REPORT_INDEX:
-            raise ArtifactError(f"build_report returned {index}, expected {REPORT_INDEX}")
+        load_trajectory, load_map = store_loaders(ctx.store.root)
+        index = Path(build_report(ctx.db, d, load_trajectory, load_map, levels_dir=ctx.levels_dir))
+        if index.name != REPORT_INDEX or index.parent.resolve() != d.resolve():
+            raise ArtifactError(f"build_report wrote {index}, expected {d / REPORT_INDEX}")
 
     path, key, cached = ctx.run("report", {"format": 1}, {"score": score.key, "episodes": state}, compute)
     return Ref("report", key, path / REPORT_INDEX, cached)

@@ -1,0 +1,143 @@
+"""Shared glue of the pipeline commands: rich progress bars, the stage context, profile options.
+
+Not a command module (the leading underscore keeps it out of discovery). Imports only light
+modules at import time.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from rich.console import Console
+from rich.progress import (BarColumn, MofNCompleteColumn, Progress, ProgressColumn, SpinnerColumn,
+                           TextColumn, TimeRemainingColumn)
+from rich.text import Text
+
+
+class RateColumn(ProgressColumn):
+    """Items per second, rich's recent-window speed (``ep/s``, ``views/s``...)."""
+
+    def __init__(self, unit: str = "it"):
+        super().__init__()
+        self.unit = unit
+
+    def render(self, task) -> Text:
+        rate = (task.finished_speed if task.finished else task.speed) or 0.0
+        unit = task.fields.get("unit", self.unit)
+        return Text(f"{rate:.2f} {unit}/s", style="progress.data.speed")
+
+
+class PipelineUI:
+    """Log lines and progress bars on one console (stderr when stdout carries JSON)."""
+
+    def __init__(self, json_mode: bool = False, quiet: bool = False):
+        self.console = Console(stderr=json_mode, highlight=False)
+        self.quiet = quiet
+        self.progress = Progress(
+            SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(bar_width=24),
+            MofNCompleteColumn(), RateColumn(), TextColumn("{task.fields[extra]}"),
+            TextColumn("ETA"), TimeRemainingColumn(compact=True),
+            console=self.console, transient=False, disable=quiet,
+        )
+
+    def __enter__(self) -> "PipelineUI":
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        self.progress.stop()
+        return False
+
+    def log(self, msg: str) -> None:
+        if self.quiet:
+            return
+        style = "dim" if ": cached " in msg or " from " in msg else None
+        if msg.startswith("warning"):
+            style = "yellow"
+        self.console.print(msg, style=style, highlight=False, markup=False, soft_wrap=True)
+
+    def bar(self, description: str, total: int | None, unit: str = "it"):
+        """A new bar; returns ``update(done, total=None, loss=None)``."""
+        tid = self.progress.add_task(description, total=total, extra="", unit=unit)
+
+        def update(done: int, total_: int | None = None, loss: float | None = None) -> None:
+            fields = {"completed": done}
+            if total_ is not None:
+                fields["total"] = total_
+            if loss is not None:
+                fields["extra"] = f"loss {loss:.4f}"
+            self.progress.update(tid, **fields)
+
+        return update
+
+    def counter(self, description: str, total: int, unit: str = "ep"):
+        """A bar driven by increments: returns ``(advance(n), set_total(total))``."""
+        tid = self.progress.add_task(description, total=total, extra="", unit=unit)
+        return (lambda n: self.progress.advance(tid, n)), (lambda t: self.progress.update(tid, total=t))
+
+
+def make_context(ui: PipelineUI, db=None, force: bool | set = False, cache_root: str = "results/cache"):
+    """A :class:`navbench.pipeline.stages.StageContext` that logs and draws on ``ui``."""
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.pipeline.stages import StageContext
+
+    if force is True:
+        force = {"*"}
+    elif not force:
+        force = set()
+
+    def progress(desc: str, total: int):
+        unit = "views" if desc.startswith("views") else "steps" if desc.startswith("fit") else "it"
+        return ui.bar(desc, total, unit)
+
+    return StageContext(ArtifactStore(cache_root), db, log=ui.log, progress=progress,
+                        force=frozenset(force))
+
+
+def load_profile_with(profile: str | None, **overrides):
+    """Load a profile and apply the CLI's non-None overrides."""
+    from navbench.pipeline.profiles import load_profile, override
+
+    return override(load_profile(profile), **overrides)
+
+
+@contextmanager
+def database(url: str | None) -> Iterator:
+    from navbench.pipeline.db import ResultsDB
+
+    db = ResultsDB(url)
+    try:
+        yield db
+    finally:
+        db.close()
+
+
+def command_line() -> str:
+    """The command line as typed (for the runs table)."""
+    return " ".join(["navbench", *sys.argv[1:]])[:256]
+
+
+def elapsed_since(t0: float) -> str:
+    return f"{time.perf_counter() - t0:.1f} s"
+
+
+def publish(src_dir: Path, dest: Path) -> Path:
+    """Copy an artifact's files (not its manifest) to ``dest`` (replaced atomically)."""
+    import shutil
+
+    dest = Path(dest)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dest.with_name(f".{dest.name}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    shutil.copytree(src_dir, tmp, ignore=shutil.ignore_patterns("manifest.json"))
+    old = dest.with_name(f".{dest.name}.old")
+    shutil.rmtree(old, ignore_errors=True)
+    if dest.exists():
+        dest.rename(old)
+    tmp.rename(dest)
+    shutil.rmtree(old, ignore_errors=True)
+    return dest

@@ -1,0 +1,74 @@
+"""``navbench all``: the whole pipeline of a profile, every stage cached."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from navbench.cli._common import console
+
+
+def _print_scores(path: Path) -> None:
+    import csv
+
+    from rich.table import Table
+
+    rows = list(csv.DictReader(open(path)))
+    t = Table(title="scores (95% bootstrap intervals in the report)")
+    cols = [("level", "level"), ("estimator", "estimator"), ("noise", "noise"), ("episodes", "n"),
+            ("success_rate", "success"), ("spl", "SPL"), ("loc_rmse_m", "loc RMSE m"),
+            ("rot_rmse_deg", "rot RMSE deg"), ("step_hz", "Hz")]
+    digits = {"step_hz": 1}
+    for _, title in cols:
+        t.add_column(title, justify="left" if title in ("level", "estimator", "noise") else "right")
+    for r in rows:
+        cells = []
+        for key, _ in cols:
+            v = r.get(key, "")
+            try:
+                cells.append(v if key in ("level", "estimator", "noise", "episodes") else f"{float(v):.{digits.get(key, 3)}f}")
+            except ValueError:
+                cells.append(v)
+        t.add_row(*cells)
+    console.print(t)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("all")
+    def all_(
+        profile: str = typer.Option("quick", "--profile", help="Profile: quick, paper or a .toml path."),
+        workers: int = typer.Option(None, "--workers", min=0, help="Worker processes; 0 = CPU count."),
+        executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
+        address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray)."),
+        report_dir: Path = typer.Option(Path("results/report"), "--report", help="Where the report is published."),
+        db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
+                               help="Results database URL [default: sqlite:///results/navbench.db]."),
+    ):
+        """make-level -> collect-views -> fit-map -> sample-tasks -> run-navigation -> score -> report.
+
+        Every stage is cached by the hash of its config and inputs; episodes already in the
+        database are skipped, so a rerun with nothing changed only verifies the cache.
+        """
+        import time
+
+        from navbench.cli.commands._pipeline_ui import publish
+        from navbench.cli.commands.run_navigation import navigate, run_and_record
+        from navbench.pipeline.profiles import load_profile, override
+        from navbench.pipeline.stages import report_stage, score_stage
+
+        t0 = time.perf_counter()
+        prof = override(load_profile(profile), workers=workers)
+
+        def body(ui, ctx, run_id):
+            _, summary = navigate(ui, ctx, prof, run_id, executor, address)
+            score = score_stage(ctx, summary.cells)
+            report = report_stage(ctx, summary.cells, score)
+            return summary, score, report
+
+        summary, score, report = run_and_record(prof, None, db, body)
+        _print_scores(score.path)
+        index = publish(report.path.parent, report_dir) / "index.html"
+        console.print(f"profile [bold]{prof.name}[/bold]: {summary.stored} new episodes, "
+                      f"{summary.already_done + summary.stored}/{summary.total} stored; report {index}; "
+                      f"{time.perf_counter() - t0:.1f} s")

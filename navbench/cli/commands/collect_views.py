@@ -1,0 +1,54 @@
+"""``navbench collect-views`` (alias ``collect-5000-views``): pose-labelled RGB-D views of a level."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console
+
+
+def _collect(level: str, count: int | None, camera: str | None, seed: int | None, profile: str | None,
+             force: bool) -> None:
+    from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with, make_context
+    from navbench.pipeline.stages import LevelConfig, ViewsConfig, collect_views_stage, make_level_stage
+
+    prof = load_profile_with(profile, camera=camera)
+    cfg = ViewsConfig(count if count is not None else prof.views, prof.camera,
+                      seed if seed is not None else prof.views_seed)
+    with PipelineUI() as ui:
+        ctx = make_context(ui, force={"collect-views"} if force else set())
+        lv = make_level_stage(ctx, LevelConfig(level, prof.level_seed))
+        ref = collect_views_stage(ctx, lv, cfg)
+    state = "cached" if ref.cached else "collected"
+    console.print(f"{level}: {cfg.count} {cfg.camera} views (seed {cfg.seed}) {state}, "
+                  f"key [bold]{ref.key[:12]}[/bold] -> {ref.path}", soft_wrap=True)
+
+
+_HELP_COUNT = "Number of views [default: the profile's, quick 1000]."
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("collect-views")
+    def collect_views(
+        level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
+        count: int = typer.Option(None, "--count", min=1, help=_HELP_COUNT),
+        camera: str = typer.Option(None, "--camera", help="half (160x120) or paper (320x240) "
+                                   "[default: the profile's]."),
+        seed: int = typer.Option(None, "--seed", min=0, help="Pose sampling seed [default: the profile's]."),
+        profile: str = typer.Option(None, "--profile", help="Profile for defaults (quick, paper or a .toml)."),
+        force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
+    ):
+        """Collect views uniformly in the level's free space into the cache (keyed, reused)."""
+        _collect(level, count, camera, seed, profile, force)
+
+    @app.command("collect-5000-views")
+    def collect_5000_views(
+        level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
+        count: int = typer.Option(5000, "--count", min=1, help="Number of views."),
+        camera: str = typer.Option(None, "--camera", help="half or paper [default: the profile's]."),
+        seed: int = typer.Option(None, "--seed", min=0, help="Pose sampling seed [default: the profile's]."),
+        profile: str = typer.Option(None, "--profile", help="Profile for defaults."),
+        force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
+    ):
+        """Alias of collect-views with --count 5000 (the paper's view count)."""
+        _collect(level, count, camera, seed, profile, force)

@@ -1,0 +1,109 @@
+"""``navbench run-navigation``: the episode grid levels x estimators x noise x tasks x seeds."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console, parse_list
+
+
+def navigate(ui, ctx, prof, run_id: int, executor: str = "local", address: str | None = None,
+             chunk_size: int | None = None):
+    """Build (or fetch) every level's inputs, then run the missing episodes with a progress bar.
+
+    Returns ``(level inputs, NavigationSummary)``. Shared by ``run-navigation`` and ``all``.
+    """
+    from navbench.pipeline.executor import make_executor
+    from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
+
+    inputs = [build_level_inputs(ctx, prof, name) for name in prof.levels]
+    cfg = NavigationConfig(estimators=tuple(prof.estimators), noise=tuple(prof.noise), seeds=prof.seeds,
+                           camera=prof.camera, episode=dict(prof.episode),
+                           estimator_options=dict(prof.estimator_options))
+    bar = {}
+
+    def on_total(n: int) -> None:
+        if n:
+            bar["advance"], _ = ui.counter("episodes", n, unit="ep")
+
+    def on_progress(n: int) -> None:
+        if "advance" in bar:
+            bar["advance"](n)
+
+    with make_executor(executor, prof.workers, address) as ex:
+        summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
+                                       on_progress=on_progress, on_total=on_total)
+    ui.log(f"run-navigation: {summary.total} episodes in {len(summary.cells)} cells: "
+           f"{summary.already_done} already stored, {summary.from_cache} from stored trajectories, "
+           f"{summary.ran} run now")
+    return inputs, summary
+
+
+def run_and_record(prof, command: str, db_url: str | None, body, json_mode: bool = False):
+    """Open the database, start a run row, call ``body(ui, ctx, run_id)``, and close the run as
+    done, interrupted (Ctrl-C) or failed; the touched artifacts become the profile's gc ref."""
+    from navbench.cli.commands._pipeline_ui import PipelineUI, command_line, database, make_context
+    from navbench.config import config_hash, to_jsonable
+
+    with database(db_url) as db:
+        config = to_jsonable(prof)
+        run_id = db.start_run(prof.name, command_line() if command is None else command, config,
+                              config_hash(config))
+        status = "failed"
+        try:
+            with PipelineUI(json_mode=json_mode) as ui:
+                ctx = make_context(ui, db)
+                result = body(ui, ctx, run_id)
+            status = "done"
+            return result
+        except KeyboardInterrupt:
+            status = "interrupted"
+            raise
+        finally:
+            db.finish_run(run_id, status)
+            if "ctx" in locals() and ctx.used:
+                ctx.store.set_ref(f"{prof.name}", ctx.used)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("run-navigation")
+    def run_navigation(
+        levels: list[str] = typer.Argument(None, help="Level names [default: the profile's]."),
+        estimators: str = typer.Option(None, "--estimators", help="Comma-separated: ours, no-map, "
+                                       "dynamics, gt, emission [default: the profile's]."),
+        noise: str = typer.Option(None, "--noise", help="Comma-separated noise levels: low, mid, high "
+                                  "(also none, tracking) [default: the profile's]."),
+        tasks: int = typer.Option(None, "--tasks", min=1, help="Tasks per level [default: the profile's]."),
+        seeds: int = typer.Option(None, "--seeds", min=1, help="Episode seeds per task [default: 1]."),
+        workers: int = typer.Option(None, "--workers", min=0, help="Worker processes (local) or CPUs "
+                                    "(ray); 0 = CPU count, 1 = in this process."),
+        executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
+        address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray; "
+                                    "default: start a local Ray instance)."),
+        map_source: str = typer.Option(None, "--map", help="fit (the fitted world model) or true "
+                                       "(the voxelized true geometry) [default: the profile's]."),
+        chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
+                                  "[default: up to 8, a quarter of the work per worker]."),
+        profile: str = typer.Option(None, "--profile", help="Profile (quick, paper or a .toml) [default: quick]."),
+        db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
+                               help="Results database URL [default: sqlite:///results/navbench.db]."),
+    ):
+        """Run navigation episodes and store them in the results database.
+
+        Every cell uses the same tasks, and a (task, seed) gets the same simulator noise seed for
+        every estimator. Missing inputs (level, views, map, tasks) are built first with the
+        profile's settings (cached). Resumable: a rerun with the same arguments skips the
+        episodes already stored and finishes the rest.
+        """
+        from navbench.pipeline.profiles import override, load_profile
+
+        prof = override(load_profile(profile), levels=levels or None,
+                        estimators=parse_list(estimators) or None, noise=parse_list(noise) or None,
+                        tasks=tasks, seeds=seeds, workers=workers, map_source=map_source)
+
+        def body(ui, ctx, run_id):
+            return navigate(ui, ctx, prof, run_id, executor, address, chunk)
+
+        _, summary = run_and_record(prof, None, db, body)
+        console.print(f"stored {summary.stored} new episodes; {summary.already_done + summary.stored}"
+                      f"/{summary.total} of the grid are in the database")

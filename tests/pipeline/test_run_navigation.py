@@ -1,0 +1,152 @@
+"""run-navigation: resumable after kill -9, same results in a pool as in-process, Ray back end."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from navbench.level import save_level
+
+from .test_stages import tiny_level
+
+NAVBENCH = str(Path(sys.executable).parent / "navbench")
+# 6 tasks x (gt, dynamics) x low noise x 2 seeds = 24 episodes on the true-geometry map
+ARGS = ["run-navigation", "tiny", "--estimators", "gt,dynamics", "--noise", "low", "--tasks", "6",
+        "--seeds", "2", "--map", "true"]
+TOTAL = 24
+COLUMNS = "cell_key, task_id, seed, estimator, success, spl_term, path_length, steps, loc_rmse_m, traj_key"
+
+
+def workdir(root: Path) -> Path:
+    (root / "levels").mkdir(parents=True)
+    save_level(tiny_level(), root / "levels" / "tiny.json")
+    return root
+
+
+def episodes(db: Path) -> list[tuple]:
+    with sqlite3.connect(db) as con:
+        return sorted(con.execute(f"SELECT {COLUMNS} FROM episodes").fetchall())
+
+
+def count(db: Path) -> int:
+    try:
+        with sqlite3.connect(db, timeout=0.2) as con:
+            return con.execute("SELECT count(*) FROM episodes").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+def run_cli(root: Path, extra: list[str]):
+    env = {**os.environ, "NAVBENCH_DB": f"sqlite:///{root / 'nb.db'}", "COLUMNS": "100"}
+    return subprocess.run([NAVBENCH, *ARGS, *extra], cwd=root, env=env, capture_output=True,
+                          text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> list[tuple]:
+    """An uninterrupted run, in this process (--workers 1), through the CLI."""
+    from navbench.cli.main import app
+
+    root = workdir(tmp_path_factory.mktemp("ref"))
+    cwd = os.getcwd()
+    os.chdir(root)
+    try:
+        res = CliRunner().invoke(app, [*ARGS, "--workers", "1", "--db", f"sqlite:///{root / 'nb.db'}"])
+    finally:
+        os.chdir(cwd)
+    assert res.exit_code == 0, res.output
+    rows = episodes(root / "nb.db")
+    assert len(rows) == TOTAL
+    return rows
+
+
+@pytest.mark.slow
+def test_kill_9_then_rerun_gives_the_uninterrupted_result(tmp_path, reference):
+    root = workdir(tmp_path)
+    db = root / "nb.db"
+    env = {**os.environ, "NAVBENCH_DB": f"sqlite:///{db}"}
+    proc = subprocess.Popen([NAVBENCH, *ARGS, "--workers", "2", "--chunk", "1"], cwd=root, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    deadline = time.monotonic() + 240
+    while count(db) < 2 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    os.killpg(proc.pid, signal.SIGKILL)  # the parent and its workers, no cleanup
+    proc.wait()
+    stored = count(db)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()[-2000:]
+    assert 0 < stored < TOTAL, f"kill landed outside the run ({stored} of {TOTAL} stored)"
+
+    res = run_cli(root, ["--workers", "2"])
+    assert res.returncode == 0, res.stderr[-2000:]
+    rows = episodes(db)
+    assert len(rows) == TOTAL == len({r[:3] for r in rows})  # none lost, none twice
+    assert rows == reference  # same cells, scores and trajectory keys as the uninterrupted run
+    with sqlite3.connect(db) as con:
+        statuses = [s for (s,) in con.execute("SELECT status FROM runs ORDER BY id")]
+    assert statuses == ["running", "done"]  # the killed run never got to close itself
+
+    again = run_cli(root, ["--workers", "2"])  # nothing left to do
+    assert again.returncode == 0 and "stored 0 new episodes" in again.stdout
+    assert episodes(db) == reference
+
+
+def test_stored_trajectory_is_scored_without_simulating(tmp_path, monkeypatch, reference):
+    """A run killed after writing a trajectory but before its row: the rerun scores the stored
+    trajectory instead of simulating it again."""
+    from navbench.cli.main import app
+    from navbench.pipeline import stages
+
+    root = workdir(tmp_path)
+    monkeypatch.chdir(root)
+    url = f"sqlite:///{root / 'nb.db'}"
+    assert CliRunner().invoke(app, [*ARGS, "--workers", "1", "--db", url]).exit_code == 0
+    with sqlite3.connect(root / "nb.db") as con:
+        con.execute("DELETE FROM episodes WHERE task_id = 0")
+    calls = []
+    real = stages.run_episode_chunk
+    monkeypatch.setattr(stages, "run_episode_chunk", lambda spec: calls.append(spec) or real(spec))
+    res = CliRunner().invoke(app, [*ARGS, "--workers", "1", "--db", url])
+    assert res.exit_code == 0, res.output
+    assert calls == [] and "4 from stored trajectories" in res.output
+    assert episodes(root / "nb.db") == reference
+
+
+def test_tampered_trajectory_is_simulated_again(tmp_path, monkeypatch, reference):
+    from navbench.cli.main import app
+    from navbench.pipeline.cache import ArtifactStore
+
+    root = workdir(tmp_path)
+    monkeypatch.chdir(root)
+    url = f"sqlite:///{root / 'nb.db'}"
+    assert CliRunner().invoke(app, [*ARGS, "--workers", "1", "--db", url]).exit_code == 0
+    with sqlite3.connect(root / "nb.db") as con:
+        (key,) = con.execute("SELECT traj_key FROM episodes WHERE task_id = 1 AND seed = 0 "
+                             "AND estimator = 'gt'").fetchone()
+        con.execute("DELETE FROM episodes WHERE traj_key = ?", (key,))
+    f = ArtifactStore("results/cache").path("episode", key) / "episode.npz"
+    f.write_bytes(f.read_bytes()[:-10])
+    res = CliRunner().invoke(app, [*ARGS, "--workers", "1", "--db", url])
+    assert res.exit_code == 0, res.output
+    assert "warning" in res.output and "1 run now" in res.output
+    assert episodes(root / "nb.db") == reference
+
+
+def test_ray_executor_matches_local(tmp_path, monkeypatch, reference):
+    pytest.importorskip("ray", reason="ray is not installed (optional extra navbench[ray])")
+    from navbench.cli.main import app
+
+    root = workdir(tmp_path)
+    monkeypatch.chdir(root)
+    monkeypatch.setenv("RAY_ENABLE_UV_RUN_RUNTIME_ENV", "0")
+    res = CliRunner().invoke(app, [*ARGS, "--executor", "ray", "--workers", "1",
+                                   "--db", f"sqlite:///{root / 'nb.db'}"])
+    assert res.exit_code == 0, res.output
+    assert episodes(root / "nb.db") == reference
