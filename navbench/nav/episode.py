@@ -74,7 +74,12 @@ class EpisodeRecord:
     plan: np.ndarray  # (K, 2) initial waypoints (m); (0, 2) without a plan
     replans: int
     end_reason: str  # one of END_REASONS
-    timings_ms: dict  # key -> (T,) float64 milliseconds, keys TIMING_KEYS
+    # key -> (T,) float64 milliseconds per step, keys TIMING_KEYS: "sim" the simulator step
+    # (dynamics, collision and its camera), "render" and "estimate" the estimator's map render
+    # and the rest of its update (from estimator.last_timing; "estimate" falls back to the
+    # measured update time), "plan" planning done before that step's control (the initial plan
+    # at step 0, replans where they happen, else 0), "control" the controller decision
+    timings_ms: dict
     plan_status: str = ""  # status of the initial plan: shortcut | astar | no-plan
     plan_ms: float = 0.0  # time of the initial plan (ms; also added to timings_ms["plan"][0])
 

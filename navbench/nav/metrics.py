@@ -76,6 +76,11 @@ def orientation_rmse(true_poses, est_poses) -> float:
     return float(np.degrees(np.sqrt(np.mean(d ** 2))))
 
 
+def rmse(true_poses, est_poses) -> tuple[float, float]:
+    """``(location RMSE [m], orientation RMSE [deg])`` of a trajectory ``(T, 3)``."""
+    return location_rmse(true_poses, est_poses), orientation_rmse(true_poses, est_poses)
+
+
 def score_episode(record, agent_length: float = AGENT_LENGTH) -> EpisodeScore:
     """Score an :class:`navbench.nav.episode.EpisodeRecord` (only its recorded arrays are used)."""
     tp = np.asarray(record.true_poses, dtype=np.float64)

@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from navbench.nav.metrics import (location_rmse, orientation_rmse, path_length, score_episode, spl,
-                                  spl_term, success)
+from navbench.nav.metrics import (location_rmse, orientation_rmse, path_length, rmse, score_episode,
+                                  spl, spl_term, success)
 
 
 def test_path_length_3_4_5():
@@ -38,6 +38,7 @@ def test_rmse_with_wrapped_angles():
     assert location_rmse(true, est) == pytest.approx(math.sqrt((0.09 + 0.16) / 2))
     # differences 0.02 and 0.04 rad across the +-pi seam
     assert orientation_rmse(true, est) == pytest.approx(math.degrees(math.sqrt((0.02**2 + 0.04**2) / 2)))
+    assert rmse(true, est) == (location_rmse(true, est), orientation_rmse(true, est))
 
 
 def test_score_episode_from_the_record():
