@@ -47,7 +47,7 @@ class Profile:
     views_seed: int = 0              # pose sampling seed of the training views
     eval_views: int = 200            # held-out views for map quality
     eval_seed: int = 1               # pose sampling seed of the held-out views
-    fit_steps: int = 1500            # Adam steps of the map fit
+    fit_steps: int = 200             # Adam steps of the map fit
     fit_seed: int = 0                # batch sampling seed of the fit
     fit: dict = field(default_factory=dict)        # other FitConfig fields
     tasks: int = 30                  # tasks per level

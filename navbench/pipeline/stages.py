@@ -184,7 +184,7 @@ class FitMapConfig:
     :class:`navbench.worldmodel.fit.FitConfig` field. The map is evaluated on held-out views
     (a separate collect-views with ``eval_count`` views from ``eval_seed``)."""
 
-    steps: int = 1500
+    steps: int = 200
     seed: int = 0
     fit: dict = field(default_factory=dict)
     eval_count: int = 200
@@ -290,34 +290,49 @@ class TasksConfig:
 TASKS_FILE = "tasks.json"
 
 
-def committed_task_file(tasks_dir: Path, level: Ref, cfg: TasksConfig) -> Path | None:
-    """A committed ``tasks/<level>-<count>-*.json`` whose level hash, seed and count match."""
+def committed_task_file(tasks_dir: Path, level: Ref, cfg: TasksConfig, prefix_ok: bool = False) -> Path | None:
+    """A committed ``tasks/<level>-<count>-*.json`` whose level hash, seed and count match.
+
+    With ``prefix_ok`` a file with MORE tasks also matches: :func:`~navbench.plan.tasks.sample_tasks`
+    draws tasks one after the other from one seeded stream, so the first ``count`` tasks of a
+    larger set of the same seed are exactly the ``count``-task set.
+    """
     from navbench.plan.tasks import read_task_file
     from navbench.errors import TaskError
 
-    for p in sorted(Path(tasks_dir).glob(f"{level.name}-{cfg.count}-*.json")):
+    best = None
+    for p in sorted(Path(tasks_dir).glob(f"{level.name}-*.json")):
         try:
             ts = read_task_file(p)
         except TaskError:
             continue
-        if ts.level == level.name and ts.level_sha256 == level.key and ts.seed == cfg.seed \
-                and ts.count == cfg.count:
+        if ts.level != level.name or ts.level_sha256 != level.key or ts.seed != cfg.seed:
+            continue
+        if ts.count == cfg.count:
             return p
-    return None
+        if prefix_ok and ts.count > cfg.count and (best is None or ts.count < best[0]):
+            best = (ts.count, p)
+    return best[1] if best else None
 
 
 def sample_tasks_stage(ctx: StageContext, level: Ref, cfg: TasksConfig) -> Ref:
-    """The level's task set: a matching committed task file, else sampled into the cache.
-    The key is the sha256 of the task file text."""
+    """The level's task set: a matching committed task file, else the first ``count`` tasks of a
+    larger committed set of the same seed, else sampled; the last two are cached. The key is the
+    sha256 of the task file text, so all three give the same key for the same tasks."""
     committed = committed_task_file(ctx.tasks_dir, level, cfg)
     if committed is not None:
         path, cached = committed, True
         ctx.log(f"sample-tasks: {level.name} from {committed}")
     else:
         def compute(d: Path) -> None:
-            from navbench.plan.tasks import sample_tasks, save_tasks
+            from navbench.plan.tasks import load_tasks, sample_tasks, save_tasks
 
-            tasks = sample_tasks(load_level_ref(level), cfg.count, cfg.seed)
+            larger = committed_task_file(ctx.tasks_dir, level, cfg, prefix_ok=True)
+            if larger is not None:
+                ctx.log(f"sample-tasks: {level.name}: the first {cfg.count} tasks of {larger}")
+                tasks = load_tasks(larger)[:cfg.count]
+            else:
+                tasks = sample_tasks(load_level_ref(level), cfg.count, cfg.seed)
             save_tasks(d / TASKS_FILE, level.name, tasks, level_hash=level.key, seed=cfg.seed)
 
         adir, _, cached = ctx.run("sample-tasks", cfg, {"level": level.key}, compute)

@@ -169,3 +169,18 @@ def test_bundled_profiles_load_and_validate():
         Profile(name="x", views_seed=1, eval_seed=1)
     p = profile_from_dict({"name": "x", "fit": {"steps": 3, "lr": 0.1}})
     assert p.fit_steps == 3 and p.fit == {"lr": 0.1}
+
+
+def test_prefix_of_a_larger_committed_task_set_equals_sampling(ctx, monkeypatch):
+    from navbench.plan import tasks as tasks_mod
+
+    level = make_level_stage(ctx, LevelConfig("tiny"))
+    sampled = sample_tasks_stage(ctx, level, TasksConfig(2, 0))
+    ctx.tasks_dir.mkdir()
+    tasks_mod.save_tasks(ctx.tasks_dir, "tiny", tasks_mod.sample_tasks(tiny_level(), 4, 0),
+                         level_hash=level.key, seed=0)
+    ctx.store = ArtifactStore(ctx.store.root.parent / "fresh-cache")
+    monkeypatch.setattr(tasks_mod, "sample_tasks", lambda *a, **k: pytest.fail("sampled again"))
+    prefixed = sample_tasks_stage(ctx, level, TasksConfig(2, 0))
+    assert prefixed.key == sampled.key and not prefixed.cached
+    assert any("first 2 tasks" in m for m in ctx.logs)
