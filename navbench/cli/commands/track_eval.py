@@ -1,0 +1,121 @@
+"""``navbench track-eval``: the tracking study (appendix E) on one level."""
+
+from __future__ import annotations
+
+import typer
+
+from navbench.cli._common import console, parse_list, print_json
+
+
+def _parse_options(items: list[str]) -> dict[str, dict]:
+    """``["ours.optimizer=adam", "emission.steps=100"]`` -> ``{"ours": {...}, "emission": {...}}``.
+
+    Values are read as JSON when possible (numbers, lists, true/false), else kept as strings.
+    """
+    import json
+
+    from navbench.errors import ConfigError
+
+    out: dict[str, dict] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        name, dot, opt = key.partition(".")
+        if not sep or not dot or not name or not opt:
+            raise ConfigError(f"--option expects ESTIMATOR.KEY=VALUE, got {item!r}")
+        try:
+            val = json.loads(value)
+        except json.JSONDecodeError:
+            val = value
+        out.setdefault(name.strip(), {})[opt.strip()] = val
+    return out
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("track-eval")
+    def track_eval(
+        level: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
+        trajectories: int = typer.Option(30, "--trajectories", min=1, help="Recorded trajectories."),
+        seeds: int = typer.Option(1, "--seeds", min=1, help="Estimator seeds per trajectory."),
+        estimators: str = typer.Option("ours,emission,no-map,dynamics,gt", "--estimators",
+                                       help="Comma-separated estimator names."),
+        steps: int = typer.Option(100, "--steps", min=1, help="Controls per trajectory."),
+        camera: str = typer.Option("half", "--camera", help="half or paper."),
+        map_: str = typer.Option("true", "--map", help="A map file (save_map format) or 'true' for the "
+                                 "voxelised true geometry (an upper bound)."),
+        seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
+        option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
+                                         "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
+                                         "emission.steps=100."),
+        emission_trajectories: int = typer.Option(10, "--emission-trajectories", min=1,
+                                                  help="Replay the slow emission tracker on the first "
+                                                  "this-many trajectories only."),
+        paper_budget: bool = typer.Option(False, "--paper-budget", help="Emission tracker with the "
+                                          "paper's budget (100 steps x 1000 pixels) instead of the "
+                                          "study's default (20 x 500)."),
+        json_out: bool = typer.Option(False, "--json", help="Print one JSON object keyed by estimator."),
+    ):
+        """Record trajectories once (tracking-study noise), replay every estimator on them.
+
+        --json prints one object keyed by estimator (plus "meta"). Reports per estimator the location RMSE (m) and orientation RMSE (deg) over trajectories
+        and the per-step time (render + estimate, ms).
+        """
+        import time
+
+        from navbench.level import resolve_level
+        from navbench.track.study import STUDY_EMISSION_OPTIONS, TrackingStudyConfig, run_tracking_study, summarize
+
+        lvl = resolve_level(level)
+        names = tuple(parse_list(estimators))
+        opts = {"emission": {} if paper_budget else dict(STUDY_EMISSION_OPTIONS)}
+        for name, o in _parse_options(option).items():
+            opts.setdefault(name, {}).update(o)
+        cfg = TrackingStudyConfig(trajectories=trajectories, seeds=seeds, steps=steps,
+                                  estimators=names, camera=camera, seed=seed,
+                                  estimator_options=opts,
+                                  trajectory_limits={"emission": emission_trajectories})
+        vmap = _load_map(map_, lvl) if any(n in ("ours", "emission") for n in names) else None
+        t0 = time.perf_counter()
+        if json_out:
+            res = run_tracking_study(lvl, vmap, cfg)
+        else:
+            from rich.progress import Progress
+
+            with Progress(console=console, transient=True) as bar:
+                task = bar.add_task(f"tracking on {lvl.name}", total=trajectories)
+                res = run_tracking_study(lvl, vmap, cfg, progress=lambda d, n: bar.update(task, completed=d))
+        summary = summarize(res)
+        if json_out:
+            meta = {"level": lvl.name, "map": map_, "camera": camera, "trajectories": trajectories,
+                    "steps": steps, "seeds": seeds, "options": opts,
+                    "trajectory_limits": cfg.trajectory_limits,
+                    "wall_s": round(time.perf_counter() - t0, 3)}
+            print_json({**summary, "meta": meta})
+            return
+        from rich.table import Table
+
+        t = Table(title=f"tracking on {lvl.name} ({trajectories} x {steps} steps, map {map_}, "
+                        f"camera {camera})")
+        for col in ("estimator", "runs", "loc RMSE median (m)", "loc RMSE p99 (m)",
+                    "< 0.1 m", "rot RMSE median (deg)", "step median (ms)"):
+            t.add_column(col, justify="left" if col == "estimator" else "right")
+        for name, s in summary.items():
+            t.add_row(name, str(s["runs"]), f"{s['loc_rmse_m_median']:.4f}", f"{s['loc_rmse_m_p99']:.4f}",
+                      f"{100 * s['frac_loc_rmse_below_0_1m']:.0f} %", f"{s['rot_rmse_deg_median']:.3f}",
+                      f"{s['step_ms_median']:.2f}")
+        console.print(t)
+
+
+def _load_map(spec: str, level):
+    from pathlib import Path
+
+    from navbench.errors import ConfigError
+
+    if spec == "true":
+        from navbench.worldmodel.grid import voxelize_level
+
+        return voxelize_level(level)
+    if not Path(spec).is_file():
+        raise ConfigError(f"--map: no such map file {spec!r} (or use 'true')")
+    from navbench.worldmodel.grid import load_map
+
+    return load_map(spec)

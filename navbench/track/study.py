@@ -1,0 +1,262 @@
+"""The tracking study (paper appendix E, made fair): record trajectories once, replay every estimator.
+
+Recording (:func:`record_trajectories`): the simulator is driven with the tracking-study noise
+(``NOISE_LEVELS["tracking"]``: sigma_alpha 3 deg, sigma_s 5 % L) by a random-waypoint controller
+that steers with the TRUE pose (so the trajectories do not depend on any estimator): it picks a
+free point (clearance ``waypoint_clearance``) that a disc of radius ``waypoint_clearance`` can
+reach in a straight line, then applies :func:`navbench.nav.controller.control_towards` (turn in
+place while the heading error exceeds 5 deg, else step forward). A trajectory stores the start
+pose, the applied (clipped) controls, the noise drawn and the true poses.
+
+Replay (:func:`run_tracking_study`): for every trajectory the observations are rendered once per
+step by the exact ray-cast camera at the true pose (a deterministic function of the pose, so
+every estimator sees bit-identical inputs) and fed in lock-step to every (estimator, seed)
+pair, each starting from the known start pose (an estimator with a ``trajectory_limits`` entry
+replays only the first that-many trajectories). Per trajectory and estimator the location RMSE
+(m) and orientation RMSE (deg) over the ``T + 1`` poses and the per-step times are kept.
+
+Pure library: arrays and dicts in and out, no files, printing or database.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from navbench.errors import ConfigError
+from navbench.geometry import AGENT_LENGTH, CAMERA_HEIGHT, wrap_angle
+
+DEFAULT_ESTIMATORS = ("ours", "emission", "no-map", "dynamics", "gt")
+
+#: Emission-tracker options used by default in the study so that the default run fits in a few
+#: minutes on a laptop CPU (the paper's budget is ``steps=100, pixels=1000``; pass
+#: ``estimator_options={"emission": {}}`` to use it).
+STUDY_EMISSION_OPTIONS = {"steps": 20, "pixels": 500}
+#: By default the (slow) emission tracker replays only the first 10 trajectories.
+STUDY_TRAJECTORY_LIMITS = {"emission": 10}
+
+
+@dataclass(frozen=True)
+class TrackingStudyConfig:
+    """Configuration of :func:`run_tracking_study` (lengths in metres)."""
+
+    trajectories: int = 30  # number of recorded trajectories
+    seeds: int = 1  # estimator seeds per trajectory (pixel tables); results pooled
+    steps: int = 100  # controls per trajectory
+    estimators: tuple[str, ...] = DEFAULT_ESTIMATORS
+    camera: str = "half"  # navbench.geometry.CAMERAS name
+    camera_height: float = CAMERA_HEIGHT
+    noise: str = "tracking"  # NOISE_LEVELS name used to record the trajectories
+    seed: int = 0  # seed of the trajectory recording (start poses, waypoints, noise)
+    waypoint_clearance: float = 1.2 * AGENT_LENGTH  # m, clearance of waypoints and straight moves
+    waypoint_range: float = 3.0  # m, largest distance to a new waypoint
+    # per-estimator constructor options, e.g. {"ours": {"optimizer": "adam"}}
+    estimator_options: dict = field(default_factory=lambda: {"emission": dict(STUDY_EMISSION_OPTIONS)})
+    # per-estimator cap on the number of trajectories replayed (the first ones), e.g. {"emission": 10}
+    trajectory_limits: dict = field(default_factory=lambda: dict(STUDY_TRAJECTORY_LIMITS))
+
+    def __post_init__(self):
+        if self.trajectories < 1 or self.seeds < 1 or self.steps < 1:
+            raise ConfigError("trajectories, seeds and steps must be >= 1")
+        if not self.estimators:
+            raise ConfigError("no estimator selected")
+        if len(set(self.estimators)) != len(self.estimators):
+            raise ConfigError(f"estimator listed twice: {list(self.estimators)}")
+        if any(int(v) < 1 for v in self.trajectory_limits.values()):
+            raise ConfigError("trajectory limits must be >= 1")
+
+
+@dataclass
+class Trajectory:
+    """One recorded trajectory (world metres, radians)."""
+
+    start: np.ndarray  # (3,) known start pose
+    true_poses: np.ndarray  # (T + 1, 3) true poses, start first
+    controls: np.ndarray  # (T, 3) applied controls (turn, direction, speed), clipped
+    noise: np.ndarray  # (T, 2) noise drawn (eps_alpha [rad], eps_s [m])
+    collided: bool
+    seed: int  # simulator seed
+
+
+def record_trajectories(level, count: int, steps: int, noise: str = "tracking", seed: int = 0,
+                        clearance: float = 1.2 * AGENT_LENGTH, waypoint_range: float = 3.0) -> list[Trajectory]:
+    """Drive the simulator (no camera) ``count`` times for ``steps`` controls; see the module doc.
+
+    Trajectory ``i`` uses simulator seed ``seed * 100003 + i``; start poses and waypoints come
+    from ``np.random.default_rng([seed, i])``. Deterministic for a given ``seed``.
+    """
+    from navbench.nav.controller import control_towards
+    from navbench.sim.world import CollisionWorld, Simulator, sample_free_points
+
+    wide = CollisionWorld(level, radius=clearance)
+    out = []
+    for i in range(count):
+        rng = np.random.default_rng([int(seed), i])
+        sim_seed = int(seed) * 100003 + i
+        sim = Simulator(level, noise=noise, seed=sim_seed, intrinsics=None)
+        xy = sample_free_points(level, rng, 1, clearance)[0]
+        start = np.array([xy[0], xy[1], float(wrap_angle(rng.uniform(-math.pi, math.pi)))])
+        sim.reset(start)
+        poses, controls, eps = [start.copy()], [], []
+        target = None
+        for _ in range(steps):
+            if target is None or np.hypot(*(target - sim.pose[:2])) < 0.5 * AGENT_LENGTH:
+                target = _pick_waypoint(level, wide, sim.pose[:2], rng, clearance, waypoint_range)
+            res = sim.step(control_towards(sim.pose, target))
+            u = sim.last_control
+            controls.append((u.turn, u.direction, u.speed))
+            eps.append(res.eps)
+            poses.append(res.pose.copy())
+            if res.collided:  # should not happen with the wide clearance; the record stays valid
+                target = None
+        out.append(Trajectory(start, np.array(poses), np.array(controls, dtype=np.float64),
+                              np.array(eps, dtype=np.float64), bool(sim.collided), sim_seed))
+    return out
+
+
+def _pick_waypoint(level, wide, xy, rng, clearance, max_range, tries: int = 200) -> np.ndarray:
+    """A free point within ``max_range`` of ``xy`` reachable in a straight line with ``clearance``."""
+    from navbench.sim.world import sample_free_points
+
+    cands = sample_free_points(level, rng, tries, clearance)
+    for c in cands:
+        d = np.hypot(*(c - xy))
+        if 0.4 < d <= max_range:
+            _, blocked = wide.sweep(xy, c)
+            if not blocked:
+                return c
+    # nothing reachable: turn around in place towards a point behind
+    return np.asarray(xy) + rng.normal(size=2) * 0.3
+
+
+def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyConfig(),
+                       trajectories: list[Trajectory] | None = None,
+                       progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Replay recorded trajectories through every estimator; see the module doc.
+
+    ``vmap``: the map the map-based estimators use (``None`` is allowed when none of them is
+    selected). ``trajectories``: pre-recorded ones (default: :func:`record_trajectories` with
+    the config). ``progress(done, total)`` is called after each trajectory.
+
+    Returns a dict::
+
+        {"config": {...}, "level": name,
+         "trajectories": {"start": (N, 3), "true_poses": (N, T+1, 3), "controls": (N, T, 3),
+                          "noise": (N, T, 2), "collided": (N,) bool, "seed": (N,) int},
+         "estimators": {name: {"seed": (N*S,) int, "trajectory": (N*S,) int,
+                               "est_poses": (N*S, T+1, 3), "loc_rmse_m": (N*S,),
+                               "rot_rmse_deg": (N*S,), "render_ms": (N*S, T),
+                               "estimate_ms": (N*S, T), "step_ms": (N*S, T)}}}
+    """
+    from navbench.geometry import camera_by_name
+    from navbench.sim.camera import RaycastCamera
+    from navbench.sim.dynamics import Control
+    from navbench.track.base import make_estimator
+
+    intr = camera_by_name(config.camera)
+    if trajectories is None:
+        trajectories = record_trajectories(level, config.trajectories, config.steps, config.noise,
+                                           config.seed, config.waypoint_clearance,
+                                           config.waypoint_range)
+    camera = RaycastCamera(level, intr, config.camera_height)
+    opts = config.estimator_options or {}
+    runs = []  # (name, seed, estimator)
+    for name in config.estimators:
+        for s in range(config.seeds):
+            est = make_estimator(name, vmap=vmap, intrinsics=intr, camera_height=config.camera_height,
+                                 renderer=None, seed=s, **dict(opts.get(name, {})))
+            runs.append((name, s, est))
+    if not trajectories or len({len(t.controls) for t in trajectories}) != 1:
+        raise ConfigError("the trajectories must be non-empty and of equal length")
+    T = len(trajectories[0].controls)
+    N = len(trajectories)
+    per = {(name, s): {"est": np.full((N, T + 1, 3), np.nan), "render": np.full((N, T), np.nan),
+                       "estimate": np.full((N, T), np.nan)} for name, s, _ in runs}
+    limits = {name: min(N, int(config.trajectory_limits.get(name, N)))
+              for name in config.estimators}
+    for n, traj in enumerate(trajectories):
+        active = [(name, s, est) for name, s, est in runs if n < limits[name]]
+        frame0 = camera.render(traj.start)
+        for name, s, est in active:
+            est.reset(traj.start.copy(), frame0)
+            per[(name, s)]["est"][n, 0] = traj.start
+        for t in range(len(traj.controls)):
+            frame = camera.render(traj.true_poses[t + 1])
+            u = Control(*(float(v) for v in traj.controls[t]))
+            for name, s, est in active:
+                e = est.update(u, frame, traj.true_poses[t + 1].copy())
+                rec = per[(name, s)]
+                rec["est"][n, t + 1] = e
+                rec["render"][n, t] = est.last_timing.get("render", 0.0)
+                rec["estimate"][n, t] = est.last_timing.get("estimate", 0.0)
+        if progress is not None:
+            progress(n + 1, N)
+
+    out_est: dict[str, dict[str, np.ndarray]] = {}
+    for name in config.estimators:
+        Ne = limits[name]
+        rows = [per[(name, s)] for s in range(config.seeds)]
+        est_poses = np.concatenate([r["est"][:Ne] for r in rows])
+        render = np.concatenate([r["render"][:Ne] for r in rows])
+        estimate = np.concatenate([r["estimate"][:Ne] for r in rows])
+        traj_idx = np.tile(np.arange(Ne), config.seeds)
+        seeds = np.repeat(np.arange(config.seeds), Ne)
+        loc, rot = [], []
+        for k, i in enumerate(traj_idx):
+            tp = trajectories[i].true_poses
+            ep = est_poses[k, : len(tp)]
+            loc.append(float(np.sqrt(np.mean(np.sum((ep[:, :2] - tp[:, :2]) ** 2, axis=1)))))
+            rot.append(float(np.degrees(np.sqrt(np.mean(wrap_angle(ep[:, 2] - tp[:, 2]) ** 2)))))
+        out_est[name] = {"seed": seeds, "trajectory": traj_idx, "est_poses": est_poses,
+                         "loc_rmse_m": np.array(loc), "rot_rmse_deg": np.array(rot),
+                         "render_ms": render, "estimate_ms": estimate, "step_ms": render + estimate}
+    return {
+        "config": _config_dict(config),
+        "level": level.name,
+        "trajectories": {
+            "start": np.stack([t.start for t in trajectories]),
+            "true_poses": np.stack([t.true_poses for t in trajectories]),
+            "controls": np.stack([t.controls for t in trajectories]),
+            "noise": np.stack([t.noise for t in trajectories]),
+            "collided": np.array([t.collided for t in trajectories]),
+            "seed": np.array([t.seed for t in trajectories]),
+        },
+        "estimators": out_est,
+    }
+
+
+def _config_dict(config: TrackingStudyConfig) -> dict:
+    from navbench.config import to_jsonable
+
+    return to_jsonable(config)
+
+
+def summarize(results: dict[str, Any], threshold_m: float = 0.1) -> dict[str, dict[str, float]]:
+    """Per-estimator summary of :func:`run_tracking_study` results (plain floats).
+
+    Keys: ``loc_rmse_m_median``, ``loc_rmse_m_p99``, ``loc_rmse_m_max``, ``rot_rmse_deg_median``,
+    ``rot_rmse_deg_p99``, ``frac_loc_rmse_below_0_1m`` (fraction of trajectory runs with location
+    RMSE below ``threshold_m``), ``step_ms_median``, ``render_ms_median``, ``estimate_ms_median``,
+    ``step_ms_mean``, ``runs`` (trajectories x seeds).
+    """
+    out = {}
+    for name, r in results["estimators"].items():
+        loc, rot = r["loc_rmse_m"], r["rot_rmse_deg"]
+        out[name] = {
+            "loc_rmse_m_median": float(np.median(loc)),
+            "loc_rmse_m_p99": float(np.percentile(loc, 99)),
+            "loc_rmse_m_max": float(np.max(loc)),
+            "rot_rmse_deg_median": float(np.median(rot)),
+            "rot_rmse_deg_p99": float(np.percentile(rot, 99)),
+            "frac_loc_rmse_below_0_1m": float(np.mean(loc < threshold_m)),
+            "step_ms_median": float(np.nanmedian(r["step_ms"])),
+            "step_ms_mean": float(np.nanmean(r["step_ms"])),
+            "render_ms_median": float(np.nanmedian(r["render_ms"])),
+            "estimate_ms_median": float(np.nanmedian(r["estimate_ms"])),
+            "runs": int(len(loc)),
+        }
+    return out

@@ -1,0 +1,92 @@
+"""The tracking study library and the track-eval command on tiny configurations."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from navbench.errors import ConfigError
+from navbench.sim.dynamics import MAX_STEP, MAX_TURN, Control, predict
+from navbench.track.study import TrackingStudyConfig, record_trajectories, run_tracking_study, summarize
+
+from .synth import small_level
+
+
+@pytest.fixture(scope="module")
+def level():
+    return small_level()
+
+
+def test_recording_is_deterministic_and_within_the_limits(level):
+    a = record_trajectories(level, 2, 15, seed=3)
+    b = record_trajectories(level, 2, 15, seed=3)
+    for ta, tb in zip(a, b):
+        assert np.array_equal(ta.true_poses, tb.true_poses)
+        assert np.array_equal(ta.controls, tb.controls)
+        assert np.array_equal(ta.noise, tb.noise)
+        assert ta.true_poses.shape == (16, 3) and ta.controls.shape == (15, 3)
+        assert np.all(np.abs(ta.controls[:, 0]) <= MAX_TURN + 1e-12)
+        assert np.all((ta.controls[:, 2] >= 0) & (ta.controls[:, 2] <= MAX_STEP + 1e-12))
+        assert np.any(ta.noise != 0)
+    assert not np.array_equal(a[0].true_poses, a[1].true_poses)
+
+
+def test_gt_and_dynamics_replay_exactly(level):
+    cfg = TrackingStudyConfig(trajectories=2, steps=8, estimators=("gt", "dynamics", "no-map"), seed=1)
+    res = run_tracking_study(level, None, cfg)
+    true = res["trajectories"]["true_poses"]
+    assert np.array_equal(res["estimators"]["gt"]["est_poses"], true)
+    assert np.all(res["estimators"]["gt"]["loc_rmse_m"] == 0)
+    dyn = res["estimators"]["dynamics"]["est_poses"]
+    for n in range(2):
+        pose = true[n, 0]
+        for t, u in enumerate(res["trajectories"]["controls"][n]):
+            pose = predict(pose, Control(*u))
+            assert np.allclose(dyn[n, t + 1], pose, atol=1e-12)
+    s = summarize(res)
+    assert set(s) == {"gt", "dynamics", "no-map"}
+    assert s["gt"]["frac_loc_rmse_below_0_1m"] == 1.0
+    assert res["estimators"]["no-map"]["step_ms"].shape == (2, 8)
+
+
+def test_config_validation():
+    with pytest.raises(ConfigError):
+        TrackingStudyConfig(trajectories=0)
+    with pytest.raises(ConfigError):
+        TrackingStudyConfig(estimators=("ours", "ours"))
+
+
+def test_track_eval_cli_prints_json(tmp_path, level):
+    from navbench.cli.main import app
+    from navbench.level import save_level
+
+    path = save_level(level, tmp_path / "room.json")
+    result = CliRunner().invoke(app, [
+        "track-eval", str(path), "--trajectories", "2", "--steps", "4", "--json",
+        "--estimators", "ours,emission,no-map,dynamics,gt",
+        "-o", "emission.steps=3", "-o", "emission.pixels=100", "-o", "ours.optimizer=adam",
+        "-o", "ours.adam_steps=10", "--emission-trajectories", "1",
+    ])
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.stdout)
+    keys = {"loc_rmse_m_median", "loc_rmse_m_p99", "rot_rmse_deg_median", "frac_loc_rmse_below_0_1m",
+            "step_ms_median"}
+    for name in ("ours", "emission", "no-map", "dynamics", "gt"):
+        assert keys <= set(out[name]), name
+    assert out["emission"]["runs"] == 1 and out["ours"]["runs"] == 2
+    assert out["gt"]["loc_rmse_m_median"] == 0.0
+    assert out["meta"]["options"]["ours"] == {"optimizer": "adam", "adam_steps": 10}
+
+
+def test_track_eval_cli_rejects_bad_options(tmp_path, level):
+    from navbench.cli.main import app
+    from navbench.level import save_level
+
+    path = save_level(level, tmp_path / "room.json")
+    result = CliRunner().invoke(app, ["track-eval", str(path), "--trajectories", "1", "--steps", "2",
+                                      "--estimators", "dynamics", "-o", "bad-option", "--json"])
+    assert result.exit_code != 0
+    assert isinstance(result.exception, ConfigError)
