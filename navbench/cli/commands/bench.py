@@ -1,0 +1,141 @@
+"""``navbench bench``: time every per-step component and compare with the paper's figures."""
+
+from __future__ import annotations
+
+import math
+
+import typer
+
+from navbench.cli._common import console, err_console
+
+
+def _fmt(value, unit: str = "") -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "n/a"
+    v = float(value)
+    digits = 3 if abs(v) < 1 else 2 if abs(v) < 10 else 1 if abs(v) < 1000 else 0
+    return f"{v:.{digits}f}" + (f" {unit}" if unit else "")
+
+
+def _print_table(result: dict) -> None:
+    from rich.table import Table
+
+    from navbench.bench import TARGETS, metric_keys
+
+    targets = {t.key: t for t in TARGETS}
+    table = Table(title=f"navbench bench: {result['level']}, {result['map']}", title_justify="left")
+    for col, just in (("measurement", "left"), ("median", "right"), ("IQR", "right"),
+                      ("min-max", "right"), ("n", "right"), ("paper (GPU)", "right"),
+                      ("target", "left")):
+        table.add_column(col, justify=just)
+    group = None
+    for key in metric_keys():
+        unit = result["units"][key]
+        if result["groups"][key] != group:
+            if group is not None:
+                table.add_section()
+            group = result["groups"][key]
+        st = result["stats"].get(key)
+        iqr = f"{_fmt(st['q1'])}-{_fmt(st['q3'])}" if st else ""
+        rng = f"{_fmt(st['min'])}-{_fmt(st['max'])}" if st else ""
+        n = str(st["n"]) if st else ""
+        paper = result["paper_vs"].get(key)
+        tgt = ""
+        if key in targets:
+            t = targets[key]
+            ok = t.check(result[key])
+            verdict = "n/a" if ok is None else "[green]pass[/]" if ok else "[red]FAIL[/]"
+            tgt = f"{t.op} {t.threshold:g}: {verdict}"
+        value = _fmt(result[key], unit)
+        if result[key] is None:
+            value = "[dim]n/a[/]"
+        table.add_row(result["labels"][key], value, iqr, rng, n,
+                      _fmt(paper, unit) if paper is not None else "", tgt)
+    console.print(table)
+    console.print(f"host {result['host']}: {result['cpu']}; torch {result['torch_version']} "
+                  f"({result['torch_threads']} threads), numba {result['numba_version']} "
+                  f"({result['numba_threads']} threads), navbench {result['navbench_version']}; "
+                  f"device {result['device']}")
+    cores = result.get("cpu_count") or 1
+    load = max(result.get("load_avg_1m_start", 0.0), result.get("load_avg_1m_end", 0.0))
+    busy = " -- the machine was BUSY (other processes competed for the CPUs)" if load > 0.75 * cores else ""
+    console.print(f"load average (1 min) {result['load_avg_1m_start']:.2f} at the start, "
+                  f"{result['load_avg_1m_end']:.2f} at the end, on {cores} CPUs{busy}")
+    console.print(f"paper: {result['paper_hardware']}; NeRF render {_fmt(result['paper']['nerf_render_ms'], 'ms')} "
+                  "(no NeRF in navbench). Medians over repeats after warm-up; "
+                  f"{result['repeats']} repeats requested, fewer where a measurement hit its "
+                  f"{result['config']['budget_s']:g} s budget; total {result['wall_s']:.0f} s.")
+    shown = {"render_ms_paper", "fit_step_ms", "fit_10k_steps_s", "e2e_episodes_per_min"}
+    for key, note in result["notes"].items():
+        if key in shown or result[key] is None or note.startswith("quick"):
+            console.print(f"  [dim]{key}: {note}[/]")
+
+
+def bench(
+    quick: bool = typer.Option(False, "--quick", help="Fewer repeats and a smaller end-to-end run (< 60 s)."),
+    repeats: int = typer.Option(None, "--repeats", min=1,
+                                help="Timed repeats per measurement (default: 5 with --quick, else 20)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of the table."),
+    level: str = typer.Option("house-1", "--level", help="Level name (levels/NAME.json) or file."),
+    seed: int = typer.Option(0, "--seed", help="Seed of every pose, pixel, walk and task drawn."),
+    workers: int = typer.Option(0, "--workers", min=0,
+                                help="Local worker processes of the end-to-end run (0: CPU count)."),
+    e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0,
+                                  help="Tasks of the end-to-end run, 0 skips it (default: 2 with --quick, else 6)."),
+    cache: str = typer.Option("results/cache", "--cache", help="Stage cache to take a fitted map from."),
+    store: bool = typer.Option(True, "--store/--no-store", help="Store the results in the results database."),
+    db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
+                           help="Results database URL (default: sqlite:///results/navbench.db)."),
+):
+    """Time the simulator, world model, planner, trackers, the full control step and whole
+    episodes; print medians with their spread beside the paper's GPU figures and the speed
+    targets, and store them in the results database (a report can then show the history).
+
+    Numbers depend on the machine and on what else runs on it: the load average is printed.
+    """
+    import sys
+
+    from navbench.bench import BenchConfig, bench_rows, run_bench
+    from navbench.config import config_hash, to_jsonable
+
+    cfg = BenchConfig(level=level, quick=quick, repeats=repeats, seed=seed, workers=workers,
+                      e2e_tasks=e2e_tasks, cache_root=cache)
+    rdb, run_id = None, None
+    if store:
+        from navbench.pipeline.db import ResultsDB
+
+        rdb = ResultsDB(db)
+        config = to_jsonable(cfg)
+        run_id = rdb.start_run(profile="bench", command="bench" + (" --quick" if quick else ""),
+                               config=config, config_hash=config_hash(config))
+    status = "failed"
+    try:
+        if as_json:
+            result = run_bench(config=cfg, progress=lambda s: err_console.print(f"[dim]bench: {s}[/]"))
+        else:
+            with console.status("benchmarking") as st:
+                result = run_bench(config=cfg, progress=lambda s: st.update(f"benchmarking: {s}"))
+        if rdb is not None:
+            rdb.add_bench_rows(run_id, bench_rows(result))
+            result["run_id"] = run_id
+        status = "done"
+    except KeyboardInterrupt:
+        status = "interrupted"
+        raise
+    finally:
+        if rdb is not None:
+            rdb.finish_run(run_id, status)
+            rdb.close()
+    if as_json:
+        from navbench.cli._common import print_json
+
+        print_json(result)
+    else:
+        _print_table(result)
+        if run_id is not None:
+            console.print(f"stored as run {run_id} in the results database")
+    sys.stdout.flush()
+
+
+def register(app: typer.Typer) -> None:
+    app.command("bench")(bench)

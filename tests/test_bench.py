@@ -1,0 +1,138 @@
+"""navbench bench: statistics, result layout, storage and the CLI (no timing assertions)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+from typer.testing import CliRunner
+
+from navbench.bench import (
+    TARGETS,
+    Metric,
+    Stats,
+    Target,
+    assemble_result,
+    bench_rows,
+    metric_keys,
+    stats,
+    timed_loop,
+)
+from navbench.cli.main import app
+from navbench.pipeline.db import ResultsDB
+
+
+# ------------------------------------------------------------------------------ statistics
+
+def test_stats_of_given_lists_are_exact():
+    s = stats([4.0, 1.0, 3.0, 2.0])
+    assert s == Stats(n=4, median=2.5, q1=1.75, q3=3.25, min=1.0, max=4.0)
+    assert s.iqr == 1.5
+    assert stats([7.0]) == Stats(1, 7.0, 7.0, 7.0, 7.0, 7.0)
+    assert stats([5, 1, 3]) == Stats(3, 3.0, 2.0, 4.0, 1.0, 5.0)
+    empty = stats([])
+    assert empty.n == 0 and all(math.isnan(v) for v in empty[1:])
+
+
+def test_timed_loop_drops_warmup_and_stops_on_budget():
+    calls = []
+
+    def call(k):
+        calls.append(k)
+        return float(k)
+
+    assert timed_loop(call, repeats=4, warmup=2) == [2.0, 3.0, 4.0, 5.0]
+    assert calls == [0, 1, 2, 3, 4, 5]
+    # a spent budget stops after min(3, repeats) timed repeats
+    assert timed_loop(call, repeats=10, warmup=1, budget_s=0.0) == [1.0, 2.0, 3.0]
+    assert timed_loop(call, repeats=2, warmup=0, budget_s=0.0) == [0.0, 1.0]
+
+
+def test_targets():
+    t = Target("x", "<=", 10.0, "x <= 10")
+    assert t.check(10.0) is True and t.check(10.5) is False and t.check(None) is None
+    assert Target("y", ">=", 4.0, "").check(4.0) is True
+    assert {t.key for t in TARGETS} <= set(metric_keys())
+
+
+# ------------------------------------------------------------------------------ result and DB
+
+def fake_result(na: frozenset = frozenset({"fit_step_ms_cuda", "diffrender_ms_5000_cuda"})) -> dict:
+    """A complete result with made-up values (layout only; no measurement behind it)."""
+    from navbench.bench import host_info
+
+    metrics = {}
+    for i, key in enumerate(metric_keys()):
+        unit = "Hz" if "_hz_" in key else "s" if key.endswith("_s") and "steps_per" not in key else "ms"
+        device = "cuda:0" if key.endswith("_cuda") else "cpu"
+        if key in na:
+            metrics[key] = Metric(key, "g", key, unit, None, None, device, note="no CUDA device")
+        else:
+            s = stats([1.0 + i, 2.0 + i, 3.0 + i])
+            metrics[key] = Metric(key, "g", key, unit, s.median, s, device, paper=50.0)
+    context = {**host_info(), "map": "test map", "level": "house-1", "quick": True, "repeats": 3,
+               "config": {"budget_s": 1.0}, "load_avg_1m_end": 0.0, "wall_s": 1.0}
+    return assemble_result(metrics, context)
+
+
+def test_bench_rows_round_trip_through_the_db(tmp_path):
+    result = fake_result()
+    rows = bench_rows(result)
+    assert {r["metric"] for r in rows} == {k for k in metric_keys() if result[k] is not None}
+    with ResultsDB(f"sqlite:///{tmp_path / 'b.db'}") as db:
+        run_id = db.start_run(profile="bench", command="bench", config={"quick": True}, config_hash="h")
+        assert db.add_bench_rows(run_id, rows) == len(rows)
+        assert db.add_bench_rows(run_id, rows) == 0  # duplicates ignored
+        db.finish_run(run_id)
+        frame = db.bench_frame()
+    assert len(frame) == len(rows)
+    got = {r.metric: (r.value, r.unit, r.device, r.run_id) for r in frame.itertuples()}
+    for r in rows:
+        assert got[r["metric"]] == (r["value"], r["unit"], r["device"], run_id)
+    assert set(frame["navbench_version"]) == {result["navbench_version"]}
+    assert set(frame["cpu"]) == {result["cpu"]}
+
+
+def test_cli_stores_a_run_and_prints_the_table(tmp_path, monkeypatch):
+    import navbench.bench
+
+    canned = fake_result()
+    monkeypatch.setattr(navbench.bench, "run_bench", lambda **kw: dict(canned))
+    url = f"sqlite:///{tmp_path / 'b.db'}"
+    r = CliRunner().invoke(app, ["bench", "--quick", "--json", "--db", url])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    with ResultsDB(url) as db:
+        runs = db.runs_frame()
+        frame = db.bench_frame()
+    assert list(runs["profile"]) == ["bench"] and list(runs["status"]) == ["done"]
+    assert out["run_id"] == int(runs["id"].iloc[0])
+    assert len(frame) == len(bench_rows(canned))
+    r = CliRunner().invoke(app, ["bench", "--no-store"])
+    assert r.exit_code == 0, r.output
+    assert "paper (GPU)" in r.stdout and "target" in r.stdout
+
+
+# ------------------------------------------------------------------------------ the real thing
+
+@pytest.mark.slow
+def test_quick_bench_json_has_every_key(tmp_path):
+    """A real run with 2 repeats: every key is a positive float or None with a note."""
+    r = CliRunner().invoke(app, ["bench", "--quick", "--json", "--repeats", "2", "--no-store",
+                                 "--e2e-tasks", "1", "--cache", str(tmp_path / "no-cache")])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    for key in ("sim_frame_ms_half", "sim_frame_ms_paper", "render_ms_half", "render_ms_paper",
+                "fit_step_ms", "plan_ms", "track_ms_ours_half", "track_ms_ours_paper",
+                "track_ms_emission_half", "control_step_hz_half", "control_step_hz_paper"):
+        assert key in out
+    for key in metric_keys():
+        v = out[key]
+        assert v is None or (isinstance(v, float) and v > 0 and math.isfinite(v)), (key, v)
+        if v is None:
+            assert out["notes"][key], key
+    for key in ("paper", "host", "cpu", "navbench_version", "torch_version", "device", "map"):
+        assert out[key], key
+    assert out["paper"]["control_step_hz"] == 16.1
+    assert "voxelized" in out["map"]
