@@ -121,7 +121,7 @@ def _finish(col, spec, origins, dirs, f_minus, f_plus, k_minus, step, tau, hit,
     return RayRender(k, rgb, hit)
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def first_crossing_index(occ, u_o, du, n, tau):
     """Eq. 1 crossing search without gradients: ``m`` of ``p+`` per ray, 0 when none.
 
@@ -132,7 +132,7 @@ def first_crossing_index(occ, u_o, du, n, tau):
     nx, ny, nz = occ.shape
     R = u_o.shape[0]
     out = np.zeros(R, np.int64)
-    for r in nb.prange(R):
+    for r in range(R):  # serial: training batches are small, threads cost more than they save
         for m in range(1, n + 1):
             fv = _f(occ, u_o[r, 0] + m * du[r, 0], u_o[r, 1] + m * du[r, 1],
                     u_o[r, 2] + m * du[r, 2], nx, ny, nz)
@@ -207,3 +207,122 @@ def laplace_nll(rgb_pred: torch.Tensor, depth_pred: torch.Tensor, rgb_obs: torch
         return per.sum()
     count = per.numel() if mask is None else mask.sum()
     return per.sum() / torch.clamp(torch.as_tensor(count, dtype=per.dtype), min=1.0)
+
+
+# ------------------------------------------------------------------------------ sparse path
+#
+# The fitting loop never materialises a dense gradient through autograd: the grids stay numpy
+# arrays, the few looked-up values become small leaf tensors, autograd runs on the per-ray graph
+# only, and the leaf gradients are scattered back through the trilinear weights (the chain rule
+# of ``f(p) = sum_a w_a(p) M[cell_a(p)]``). Gradients are exactly those of render_rays.
+
+
+@nb.njit(cache=True)
+def gather_cells(grid, u):
+    """Trilinear lookup with its stencil: ``grid (nx, ny, nz, C)`` at cell indices ``u (P, 3)``.
+
+    Returns ``idx (P, 8)`` int64 flat cell indices (``(i ny + j) nz + k``), ``w (P, 8)`` float64
+    weights and ``vals (P, C)`` float64 (border-clamped like every renderer here).
+    """
+    nx, ny, nz, C = grid.shape
+    P = u.shape[0]
+    idx = np.empty((P, 8), np.int64)
+    w = np.empty((P, 8))
+    vals = np.zeros((P, C))
+    for p in range(P):
+        i, tx = _cell(u[p, 0], nx)
+        j, ty = _cell(u[p, 1], ny)
+        k, tz = _cell(u[p, 2], nz)
+        a = 0
+        for dx in range(2):
+            wx = tx if dx else 1.0 - tx
+            for dy in range(2):
+                wy = ty if dy else 1.0 - ty
+                for dz in range(2):
+                    wz = tz if dz else 1.0 - tz
+                    ww = wx * wy * wz
+                    idx[p, a] = ((i + dx) * ny + (j + dy)) * nz + (k + dz)
+                    w[p, a] = ww
+                    for c in range(C):
+                        vals[p, c] += ww * grid[i + dx, j + dy, k + dz, c]
+                    a += 1
+    return idx, w, vals
+
+
+@nb.njit(cache=True)
+def scatter_add(idx, w, g, out):
+    """``out[idx[p, a], c] += w[p, a] g[p, c]``: the gradient of a lookup w.r.t. its grid.
+
+    ``out (N, C)`` float32 (the grid flattened over cells); serial, so sums are deterministic.
+    """
+    P = idx.shape[0]
+    C = g.shape[1]
+    for p in range(P):
+        for a in range(8):
+            n = idx[p, a]
+            for c in range(C):
+                out[n, c] += w[p, a] * g[p, c]
+
+
+class Lookup:
+    """Values of a grid at points as a leaf tensor, with the stencil to scatter its gradient."""
+
+    def __init__(self, grid: np.ndarray, spec: GridSpec, points: np.ndarray, dtype=torch.float32):
+        g = grid if grid.ndim == 4 else grid[..., None]
+        u = (np.asarray(points, np.float64) - np.asarray(spec.lo)) / spec.size - 0.5
+        self.idx, self.w, vals = gather_cells(g, np.ascontiguousarray(u.reshape(-1, 3)))
+        self.squeeze = grid.ndim == 3
+        v = torch.from_numpy(vals).to(dtype)
+        self.values = (v[:, 0] if self.squeeze else v).requires_grad_(True)
+
+    def scatter_grad(self, out: np.ndarray) -> None:
+        """Add ``d loss / d grid`` (from ``values.grad``) into ``out`` (``grid``-shaped, float32)."""
+        if self.values.grad is None:
+            return
+        g = self.values.grad.detach().double().numpy()
+        g = g[:, None] if self.squeeze else g
+        flat = out.reshape(-1, g.shape[1])
+        if not np.shares_memory(flat, out):
+            raise ValueError("scatter_grad needs a C-contiguous gradient array")
+        scatter_add(self.idx, self.w, np.ascontiguousarray(g), flat)
+
+
+class SparseRender(NamedTuple):
+    """:class:`RayRender` plus the lookups whose gradients go back to the grids."""
+
+    depth: torch.Tensor
+    rgb: torch.Tensor
+    hit: torch.Tensor
+    occ_lookup: Lookup  # f(p-) then f(p+) for every ray: values (2R,)
+    col_lookup: Lookup  # g(p*): values (R, 3)
+
+
+def render_rays_sparse(occ: np.ndarray, col: np.ndarray, spec: GridSpec, tau: float,
+                       origins: np.ndarray, dirs: np.ndarray, step: float, n: int,
+                       dtype=torch.float32) -> SparseRender:
+    """The fitting path of eq. 1 on numpy grids: values and gradients of :func:`render_rays`.
+
+    After ``loss.backward()`` call ``occ_lookup.scatter_grad(grad_occ)`` and
+    ``col_lookup.scatter_grad(grad_col)`` to obtain ``d loss / d M_occ`` and ``d loss / d M_col``
+    (``colour_moves_surface`` is False on this path).
+    """
+    o = np.asarray(origins, np.float64)
+    d = np.asarray(dirs, np.float64)
+    size = spec.size
+    lo = np.asarray(spec.lo)
+    m = first_crossing_index(occ, (o - lo) / size - 0.5, d * step / size, int(n), float(tau))
+    m1 = np.maximum(m, 1)
+    k_minus = (m1 - 1) * step
+    k_plus = m1 * step
+    pts = np.concatenate([o + k_minus[:, None] * d, o + k_plus[:, None] * d])
+    occ_l = Lookup(occ, spec, pts, dtype)
+    R = len(o)
+    f_minus, f_plus = occ_l.values[:R], occ_l.values[R:]
+    hit = torch.from_numpy(m > 0) & (f_plus > tau).detach() & (f_minus <= tau).detach()
+    safe_plus = torch.where(hit, f_plus, f_minus.detach() + 1.0)
+    k = _crossing(f_minus, safe_plus, torch.from_numpy(k_minus).to(dtype), step, tau)
+    k = torch.where(hit, k, torch.zeros_like(k))
+    p_star = o + k.detach().double().numpy()[:, None] * d
+    col_l = Lookup(col, spec, p_star, dtype)
+    rgb = col_l.values * hit[:, None].to(dtype)
+    return SparseRender(k, rgb, hit, occ_l, col_l)

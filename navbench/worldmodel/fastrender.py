@@ -99,8 +99,7 @@ def _f(occ, ux, uy, uz, nx, ny, nz):
     return _tri(occ, i, j, k, tx, ty, tz)
 
 
-@nb.njit(cache=True, parallel=True)
-def render_kernel(occ, col, cmax, u_c, inv_size, R, rays, step, n, tau, depth, rgb, valid):
+def _render_kernel(occ, col, cmax, u_c, inv_size, R, rays, step, n, tau, depth, rgb, valid):
     """Fill ``depth (H, W)``, ``rgb (H, W, 3)``, ``valid (H, W)`` in place.
 
     ``col (3, nx, ny, nz)``: colour channels first. ``u_c (3,)``: camera centre in continuous cell indices; ``inv_size (3,)``: 1 / cell size;
@@ -158,15 +157,27 @@ def render_kernel(occ, col, cmax, u_c, inv_size, R, rays, step, n, tau, depth, r
                 rgb[r, c, ch] = min(1.0, max(0.0, v))
 
 
+render_kernel = nb.njit(cache=True, parallel=True)(_render_kernel)
+render_kernel_serial = nb.njit(cache=True)(_render_kernel)
+#: Images with at least this many pixels render on numba's threads by default.
+PARALLEL_MIN_PIXELS = 320 * 240
+
+
 class FastRenderer:
     """Renders one map for one camera many times (keeps the skip table and ray directions).
 
     ``step``: ray sample spacing Delta (m), default ``vmap.meta['step']`` or 0.1 m;
     ``max_range`` (m): the last sample is at ``round(max_range / step) * step``.
+    ``parallel``: rows on numba's threads; ``None`` = only for images of at least
+    :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster).
     """
 
     def __init__(self, vmap: VoxelMap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
-                 max_range: float = MAX_RANGE, step: float | None = None):
+                 max_range: float = MAX_RANGE, step: float | None = None,
+                 parallel: bool | None = None):
+        if parallel is None:
+            parallel = intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+        self._kernel = render_kernel if parallel else render_kernel_serial
         self.vmap = vmap
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
@@ -187,7 +198,7 @@ class FastRenderer:
         rgb = np.empty((H, W, 3), np.float32)
         valid = np.empty((H, W), np.bool_)
         u_c = (T_wc[:3, 3] - self._lo) * self._inv - 0.5
-        render_kernel(self.vmap.occ, self._col, self.cmax, u_c, self._inv,
+        self._kernel(self.vmap.occ, self._col, self.cmax, u_c, self._inv,
                       np.ascontiguousarray(T_wc[:3, :3]), self.rays, self.step, self.n,
                       self.vmap.tau, depth, rgb, valid)
         return Frame(rgb, depth, valid)

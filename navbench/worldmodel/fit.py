@@ -1,0 +1,348 @@
+"""Fitting the world model to pose-labelled views (paper eq. 3, appendix A) and scoring it.
+
+Eq. 3 is minimised by Adam over ``M_occ``, ``M_col`` (lr 0.05) and the Laplace scale ``sigma2``
+(its own Adam, lr 0.01; ``sigma1 = sigma2 / 5``), with Monte-Carlo batches of 25 images x 200
+pixels drawn by a seeded generator. Each step renders the batch's rays with the fast bracketing
+path of :func:`navbench.worldmodel.diffrender.render_rays` and takes the mean eq. 2 NLL over
+the rays that have a crossing and a valid observed depth (rays without a crossing contribute
+nothing, see :mod:`navbench.worldmodel.diffrender`).
+
+The paper does not say how the grids are initialised, and an empty grid has no crossing and so
+no gradient. Two documented additions, both named :class:`FitConfig` options:
+
+``init="box"``
+    Cells whose centre lies outside the views' box (below the floor, above the ceiling, beyond
+    the floor plan) start at ``init_solid``, the rest at ``init_free`` (both default to the
+    free/solid levels 0 and 1 around ``tau = 0.5``). Every ray then crosses something from the
+    first step; ``init="empty"`` starts every cell at ``init_free``.
+``free_space_weight > 0`` (an auxiliary term added to eq. 3)
+    For every batch ray with a valid observed depth ``d``: ``free_space_samples`` points at
+    ``k ~ U(0, d - free_space_margin)`` are pushed below ``tau - free_space_delta`` and as many
+    points at ``k ~ U(d, d + free_space_margin)`` above ``tau + free_space_delta``, by the mean
+    hinge ``relu(f - (tau - delta)) + relu((tau + delta) - f)`` times ``free_space_weight``.
+    This is the free-space / depth supervision of differentiable volumetric rendering work: it
+    carves the free space every observed ray passes through, so surfaces appear where eq. 1 can
+    then refine them. ``free_space_weight = 0`` is the paper's pure objective.
+
+``scripts/fit_quality.py`` measures both variants on a level.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numba as nb
+import numpy as np
+
+from navbench.errors import ConfigError
+from navbench.worldmodel.grid import PAPER_GRID_SHAPE, VoxelMap, grid_for_box
+from navbench.worldmodel.views import Views
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """Fitting options; defaults are the paper's (appendix A) plus the documented additions."""
+
+    steps: int = 10_000  # Adam steps
+    lr: float = 0.05  # Adam learning rate of M_occ and M_col
+    images_per_batch: int = 25  # images drawn per step (with replacement)
+    pixels_per_image: int = 200  # pixels drawn uniformly per batch image
+    sigma2_init: float = 2.4  # initial depth scale sigma2 (m); sigma1 = sigma2 / 5
+    sigma2_lr: float = 0.01  # Adam learning rate of sigma2
+    grid_shape: tuple[int, int, int] = PAPER_GRID_SHAPE  # (nx, ny, nz) cells
+    margin_z: float = 0.15  # m of grid below the box floor and above its ceiling
+    max_range: float = 20.0  # n * Delta (m): the last ray sample
+    n_samples: int = 200  # n: samples per ray, Delta = max_range / n_samples (m)
+    tau: float = 0.5  # crossing threshold of eq. 1
+    init: str = "box"  # "box" (cells outside the views' box start solid) or "empty"
+    init_free: float = 0.0  # initial occupancy inside the box
+    init_solid: float = 1.0  # initial occupancy outside the box (init="box")
+    init_colour: float = 0.5  # initial colour (all channels)
+    free_space_weight: float = 1.0  # weight of the auxiliary free-space term; 0 = pure eq. 3
+    free_space_samples: int = 2  # free (and as many behind-surface) points per ray
+    free_space_margin: float = 0.05  # m of depth kept clear of the observed surface
+    free_space_delta: float = 0.25  # hinge margin around tau
+    min_sigma2: float = 1e-3  # lower clamp of sigma2 (m)
+    optimizer: str = "lazy-adam"  # "adam": dense torch Adam (fused); "lazy-adam": touched cells only
+    seed: int = 0  # seed of the batch sampling
+    threads: int = 1  # torch threads during the fit (the torch graph is tiny; 1 avoids spin contention)
+
+    def __post_init__(self):
+        if self.steps < 0 or self.images_per_batch < 1 or self.pixels_per_image < 1:
+            raise ConfigError("fit: steps >= 0, images_per_batch >= 1, pixels_per_image >= 1")
+        if self.n_samples < 1 or self.max_range <= 0:
+            raise ConfigError("fit: n_samples >= 1 and max_range > 0 required")
+        if self.init not in ("box", "empty"):
+            raise ConfigError(f"fit: unknown init {self.init!r}; choose 'box' or 'empty'")
+        if self.optimizer not in ("adam", "lazy-adam"):
+            raise ConfigError(f"fit: unknown optimizer {self.optimizer!r}; choose 'adam' or 'lazy-adam'")
+        if self.sigma2_init <= 0 or self.free_space_weight < 0:
+            raise ConfigError("fit: sigma2_init > 0 and free_space_weight >= 0 required")
+
+    @property
+    def step(self) -> float:
+        """Delta, the ray sample spacing (m)."""
+        return self.max_range / self.n_samples
+
+
+def initial_grids(views: Views, config: FitConfig):
+    """The grid spec and initial ``occ``, ``col`` numpy arrays for ``views`` (see ``init``)."""
+    spec = grid_for_box(views.box[0], views.box[1], config.grid_shape, config.margin_z)
+    occ = np.full(spec.shape, config.init_free, np.float32)
+    if config.init == "box":
+        X, Y, Z = np.meshgrid(spec.centres(0), spec.centres(1), spec.centres(2), indexing="ij")
+        lo, hi = views.box
+        out = ((X < lo[0]) | (X > hi[0]) | (Y < lo[1]) | (Y > hi[1]) | (Z < lo[2]) | (Z > hi[2]))
+        occ[out] = config.init_solid
+    col = np.full(spec.shape + (3,), config.init_colour, np.float32)
+    return spec, occ, col
+
+
+class BatchSampler:
+    """Seeded Monte-Carlo batches of pixels: world rays and their observations.
+
+    ``draw()`` returns ``origins (B, 3)``, ``dirs (B, 3)`` (world frame, ``v = R K^-1 [i j 1]``),
+    ``rgb (B, 3)`` in [0, 1], ``depth (B,)`` metres, ``valid (B,)`` bool, as torch float32
+    tensors, with ``B = images_per_batch * pixels_per_image``.
+    """
+
+    def __init__(self, views: Views, images: int, pixels: int, seed: int):
+        from navbench.geometry import camera_rotation, pixel_rays
+
+        self.views = views
+        self.rng = np.random.default_rng(seed)
+        self.images, self.pixels = images, pixels
+        self.cam_rays = pixel_rays(views.intrinsics).reshape(-1, 3)
+        th = np.asarray(views.poses[:, 2])
+        self.R = np.stack([camera_rotation(t) for t in th]) if len(th) else np.zeros((0, 3, 3))
+        self.W = views.intrinsics.width
+
+    def draw(self):
+        import torch
+
+        v = self.views
+        img = self.rng.integers(0, len(v), size=self.images)
+        pix = self.rng.integers(0, len(self.cam_rays), size=(self.images, self.pixels))
+        jj, ii = np.divmod(pix, self.W)
+        ib = np.repeat(img, self.pixels)
+        jj, ii, pix = jj.ravel(), ii.ravel(), pix.ravel()
+        order = np.lexsort((ii, jj, ib))  # sorted reads from memory-mapped arrays
+        ib, jj, ii, pix = ib[order], jj[order], ii[order], pix[order]
+        dirs = np.einsum("bij,bj->bi", self.R[ib], self.cam_rays[pix])
+        origins = np.column_stack([v.poses[ib, 0], v.poses[ib, 1], np.full(len(ib), v.camera_height)])
+        rgb = np.asarray(v.rgb[ib, jj, ii], np.float32) / 255.0
+        depth = np.asarray(v.depth[ib, jj, ii], np.float32)
+        valid = np.asarray(v.valid[ib, jj, ii]) & np.isfinite(depth)
+        depth = np.where(valid, depth, 0.0).astype(np.float32)
+        t = lambda a: torch.from_numpy(np.ascontiguousarray(a, np.float32))  # noqa: E731
+        return t(origins), t(dirs), t(rgb), t(depth), torch.from_numpy(valid)
+
+
+def free_space_points(origins, dirs, depth, valid, rng, samples, margin):
+    """Points of the auxiliary term: ``(free (Rv S, 3), solid (Rv S, 3))`` world metres.
+
+    For each valid ray, ``samples`` depths ``k ~ U(0, d - margin)`` (free) and
+    ``k ~ U(d, d + margin)`` (just behind the observed surface); ``rng`` a numpy Generator.
+    """
+    o, d, dep = origins[valid], dirs[valid], depth[valid]
+    R = len(dep)
+    k_free = rng.random((R, samples)) * np.maximum(dep - margin, 0.0)[:, None]
+    k_solid = dep[:, None] + margin * rng.random((R, samples))
+    free = o[:, None, :] + k_free[..., None] * d[:, None, :]
+    solid = o[:, None, :] + k_solid[..., None] * d[:, None, :]
+    return free.reshape(-1, 3), solid.reshape(-1, 3)
+
+
+def free_space_hinge(f_free, f_solid, tau: float, delta: float):
+    """Mean hinge ``relu(f_free - (tau - delta)) + relu((tau + delta) - f_solid)`` (torch)."""
+    import torch
+
+    if f_free.numel() == 0:
+        return f_free.sum()
+    return torch.relu(f_free - (tau - delta)).mean() + torch.relu((tau + delta) - f_solid).mean()
+
+
+class _LazyAdam:
+    """Adam on the cells a step touched (``torch.optim.SparseAdam`` semantics), in numba."""
+
+    def __init__(self, param: np.ndarray, lr: float, betas=(0.9, 0.999), eps=1e-8):
+        self.p = param.reshape(-1, param.shape[-1] if param.ndim == 4 else 1)  # a view
+        self.mv = np.zeros(self.p.shape + (2,), np.float32)  # first and second moments, together
+        self.stamp = np.zeros(len(self.p), np.int32)
+        self.lr, self.b1, self.b2, self.eps = lr, betas[0], betas[1], eps
+        self.t = 0
+
+    def step(self, grad: np.ndarray, idx_list) -> None:
+        self.t += 1
+        g = grad.reshape(self.p.shape)
+        for idx in idx_list:
+            _lazy_adam(self.p, g, self.mv, idx, self.stamp, self.t, self.lr, self.b1,
+                       self.b2, self.eps)
+
+
+def _dense_zero(grad: np.ndarray, idx_list) -> None:
+    g = grad.reshape(-1, grad.shape[-1] if grad.ndim == 4 else 1)
+    for idx in idx_list:
+        _zero_rows(g, idx)
+
+
+def fit_map(views: Views, config: FitConfig = FitConfig(),
+            progress: Callable[[int, int, float], None] | None = None,
+            heldout: Views | None = None, level=None) -> tuple[VoxelMap, dict]:
+    """Fit ``M_occ``, ``M_col`` (and ``sigma2``) to ``views`` by eq. 3 (+ the configured additions).
+
+    ``progress(step, total, loss)`` is called every 10 steps and at the end. Returns the
+    :class:`VoxelMap` (``meta``: step, max_range, sigma2, config) and metrics: ``fit_time_s``,
+    ``ms_per_step``, ``final_loss`` (mean NLL of the last 100 steps), ``sigma2``,
+    ``hit_fraction`` (batch rays with a crossing, last 100 steps), ``loss_curve`` (every 100
+    steps), plus :func:`evaluate_map` of ``heldout`` (and ``level``) when given.
+    """
+    import torch
+
+    from navbench.config import to_jsonable
+    from navbench.worldmodel.diffrender import Lookup, laplace_nll, render_rays_sparse
+
+    if len(views) == 0:
+        raise ConfigError("fit: no views")
+    old_threads = torch.get_num_threads()
+    torch.set_num_threads(max(1, config.threads))
+    try:
+        spec, occ, col = initial_grids(views, config)
+        g_occ = np.zeros_like(occ)
+        g_col = np.zeros_like(col)
+        sigma2 = torch.tensor(float(config.sigma2_init), requires_grad=True)
+        opt_s = torch.optim.Adam([sigma2], lr=config.sigma2_lr)
+        if config.optimizer == "adam":
+            occ_t, col_t = torch.from_numpy(occ), torch.from_numpy(col)  # share memory
+            occ_t.grad, col_t.grad = torch.from_numpy(g_occ), torch.from_numpy(g_col)
+            dense = torch.optim.Adam([occ_t, col_t], lr=config.lr, fused=True)
+        else:
+            lazy_occ, lazy_col = _LazyAdam(occ, config.lr), _LazyAdam(col, config.lr)
+        sampler = BatchSampler(views, config.images_per_batch, config.pixels_per_image, config.seed)
+        rng = np.random.default_rng([int(config.seed), 1])
+        step, n = config.step, config.n_samples
+        curve, recent, hits = [], [], []
+        t0 = time.perf_counter()
+        for it in range(config.steps):
+            o, d, rgb, dep, valid = sampler.draw()
+            out = render_rays_sparse(occ, col, spec, config.tau, o.numpy(), d.numpy(), step, n)
+            mask = out.hit & valid
+            loss = laplace_nll(out.rgb, out.depth, rgb, dep, sigma2, mask=mask)
+            total = loss
+            occ_lookups = [out.occ_lookup]
+            if config.free_space_weight > 0:
+                free, solid = free_space_points(o.numpy(), d.numpy(), dep.numpy(), valid.numpy(),
+                                                rng, config.free_space_samples,
+                                                config.free_space_margin)
+                fs = Lookup(occ, spec, np.concatenate([free, solid]))
+                nf = len(free)
+                total = total + config.free_space_weight * free_space_hinge(
+                    fs.values[:nf], fs.values[nf:], config.tau, config.free_space_delta)
+                occ_lookups.append(fs)
+            opt_s.zero_grad()
+            total.backward()
+            for lk in occ_lookups:
+                lk.scatter_grad(g_occ)
+            out.col_lookup.scatter_grad(g_col)
+            occ_idx = [lk.idx for lk in occ_lookups]
+            if config.optimizer == "adam":
+                dense.step()
+                _dense_zero(g_occ, occ_idx)
+                _dense_zero(g_col, [out.col_lookup.idx])
+            else:
+                lazy_occ.step(g_occ, occ_idx)
+                lazy_col.step(g_col, [out.col_lookup.idx])
+            if bool(mask.any()):
+                opt_s.step()
+            with torch.no_grad():
+                sigma2.clamp_(min=config.min_sigma2)
+            lv = float(loss.detach())
+            recent.append(lv)
+            hits.append(float(mask.float().mean()))
+            if (it + 1) % 100 == 0:
+                curve.append(float(np.mean(recent[-100:])))
+            if progress is not None and ((it + 1) % 10 == 0 or it + 1 == config.steps):
+                progress(it + 1, config.steps, lv)
+        elapsed = time.perf_counter() - t0
+    finally:
+        torch.set_num_threads(old_threads)
+    meta = {"source": "fit_map", "level": views.level, "step": step, "max_range": config.max_range,
+            "sigma2": float(sigma2.detach()), "config": to_jsonable(config), "views": len(views)}
+    vmap = VoxelMap(spec, occ, col, config.tau, meta)
+    metrics = {
+        "fit_time_s": elapsed, "steps": config.steps,
+        "ms_per_step": 1000 * elapsed / max(1, config.steps),
+        "final_loss": float(np.mean(recent[-100:])) if recent else math.nan,
+        "hit_fraction": float(np.mean(hits[-100:])) if hits else math.nan,
+        "sigma2": float(sigma2.detach()), "loss_curve": curve,
+    }
+    if heldout is not None:
+        metrics.update(evaluate_map(vmap, level, heldout))
+    return vmap, metrics
+
+
+@nb.njit(cache=True)
+def _lazy_adam(p, g, mv, idx, stamp, t, lr, b1, b2, eps):
+    """One Adam update of every row of ``p`` named in ``idx`` (once per step), zeroing ``g`` there."""
+    bc1 = 1.0 - b1 ** t
+    bc2 = 1.0 - b2 ** t
+    C = p.shape[1]
+    for q in range(idx.shape[0]):
+        for a in range(idx.shape[1]):
+            r = idx[q, a]
+            if stamp[r] == t:
+                continue
+            stamp[r] = t
+            for c in range(C):
+                gg = g[r, c]
+                m = b1 * mv[r, c, 0] + (1.0 - b1) * gg
+                v = b2 * mv[r, c, 1] + (1.0 - b2) * gg * gg
+                mv[r, c, 0] = m
+                mv[r, c, 1] = v
+                p[r, c] -= lr * (m / bc1) / (math.sqrt(v / bc2) + eps)
+                g[r, c] = 0.0
+
+
+@nb.njit(cache=True)
+def _zero_rows(g, idx):
+    for q in range(idx.shape[0]):
+        for a in range(idx.shape[1]):
+            r = idx[q, a]
+            for c in range(g.shape[1]):
+                g[r, c] = 0.0
+
+
+def evaluate_map(vmap: VoxelMap, level, heldout: Views, step: float | None = None) -> dict:
+    """Render ``heldout`` views from ``vmap`` and compare; slice scores when ``level`` is given.
+
+    ``depth_mae_m``: mean |rendered - observed| z-depth (m) over pixels valid in both;
+    ``rgb_l1``: mean absolute colour error per channel (in [0, 1]) over the same pixels;
+    ``coverage``: fraction of observed-valid pixels the map renders a crossing for;
+    ``slice_precision`` / ``slice_recall``: the band occupancy slice vs the level's raster with
+    a one-cell tolerance (:func:`navbench.worldmodel.grid.slice_scores`).
+    """
+    from navbench.worldmodel.fastrender import FastRenderer
+
+    fr = FastRenderer(vmap, heldout.intrinsics, heldout.camera_height,
+                      max_range=float(vmap.meta.get("max_range", 20.0)), step=step)
+    abs_d, abs_c, n_both, n_obs = 0.0, 0.0, 0, 0
+    for k in range(len(heldout)):
+        frame = fr.render(heldout.poses[k])
+        obs_ok = np.asarray(heldout.valid[k])
+        both = obs_ok & frame.valid
+        dep = np.asarray(heldout.depth[k], np.float64)
+        abs_d += float(np.abs(frame.depth[both] - dep[both]).sum())
+        rgb = np.asarray(heldout.rgb[k], np.float32) / 255.0
+        abs_c += float(np.abs(frame.rgb[both] - rgb[both]).sum())
+        n_both += int(both.sum())
+        n_obs += int(obs_ok.sum())
+    out = {"depth_mae_m": abs_d / max(1, n_both), "rgb_l1": abs_c / max(1, 3 * n_both),
+           "coverage": n_both / max(1, n_obs), "heldout_views": len(heldout)}
+    if level is not None:
+        from navbench.worldmodel.grid import slice_scores
+
+        out["slice_precision"], out["slice_recall"] = slice_scores(vmap, level)
+    return out
