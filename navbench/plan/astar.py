@@ -12,7 +12,10 @@ distance to the goal. A move is allowed when
   cell from a Euclidean distance transform computed once per map (so it is exact at cell
   centres and within half a cell diagonal elsewhere). One addition (``escape``): from a point
   inside that margin (a start next to an inflated obstacle of a learned map) a move may also
-  step into a point of strictly larger clearance, so the search can leave the margin.
+  step into a point of strictly larger clearance, so the search can leave the margin; and
+  lattice points within ``goal_tolerance`` of the goal need only ``goal_safety`` (0.5 L)
+  clearance, so a target that the learned map puts just inside the margin stays reachable.
+  Neither changes anything on a map whose start and goal keep the full margin.
 
 The search stops at the first expanded lattice point within ``goal_tolerance`` (0.8 L) of the
 goal. The waypoints are the lattice points after the start, followed by the goal itself when
@@ -57,6 +60,10 @@ class PlannerConfig:
     # start inside the margin of an inflated learned map), moves that strictly increase the
     # clearance are allowed until the margin is left; False: such a start has no plan
     escape: bool = True
+    # an addition to the paper: lattice points within goal_tolerance of the goal need only this
+    # clearance (m), so a target that an inflated learned map puts a little inside the safety
+    # margin stays reachable; set it to ``safety`` for the paper's strict rule
+    goal_safety: float = 0.5 * AGENT_LENGTH
     max_expansions: int = 200_000  # give up ("no-plan") after this many expansions
 
 
@@ -157,7 +164,7 @@ def _line_ok(occ, clear, x0, y0, cell, ax, ay, bx, by, n, min_clear):
 
 @njit(cache=True)
 def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_samples, max_exp, escape,
-           turn_penalty):
+           turn_penalty, goal_safety):
     """Lattice A*; returns (path lattice offsets (K, 2) int64 from the start, expansions).
 
     K = 0 means no path. The lattice point (i, j) is at (sx + i * step, sy + j * step).
@@ -207,7 +214,10 @@ def _astar(occ, clear, x0, y0, cell, sx, sy, gx, gy, step, safety, goal_tol, n_s
             ix, iy = _cell(occ, x0, y0, cell, qx, qy)
             if ix < 0 or occ[ix, iy]:
                 continue
-            if clear[ix, iy] < safety and not (escape and here < safety and clear[ix, iy] > here):
+            need = safety
+            if goal_safety < safety and math.sqrt((qx - gx) ** 2 + (qy - gy) ** 2) <= goal_tol:
+                need = goal_safety
+            if clear[ix, iy] < need and not (escape and here < need and clear[ix, iy] > here):
                 continue
             cost = step if k < 4 else step * math.sqrt(2.0)
             if move[ci, cj] >= 0 and move[ci, cj] != k:
@@ -261,7 +271,7 @@ def plan_on_map(pmap: PlannerMap, start_xy, goal_xy) -> Plan:
                               float(s[0]), float(s[1]), float(t[0]), float(t[1]),
                               float(cfg.step), float(cfg.safety), float(cfg.goal_tolerance),
                               int(cfg.edge_samples), int(cfg.max_expansions), bool(cfg.escape),
-                              float(cfg.turn_penalty))
+                              float(cfg.turn_penalty), float(cfg.goal_safety))
     if len(path) == 0:
         return Plan(None, "no-plan", int(expansions))
     pts = s[None, :] + path[1:].astype(np.float64) * cfg.step

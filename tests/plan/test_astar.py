@@ -120,3 +120,19 @@ def test_escape_from_a_start_inside_the_safety_margin():
     d = plan.waypoints[:, 1] - 0.975
     first_safe = int(np.argmax(d >= 0.24))
     assert np.all(np.diff(d[: first_safe + 1]) > 0) and np.all(d[first_safe:] >= 0.24 - cell)
+
+
+def test_goal_just_inside_the_margin_is_reachable_with_goal_safety():
+    cell = 0.05
+    occ, xs, ys = _grid(60, 60, cell)
+    occ[:, 0:20] = True  # occupied centres up to y = 0.975
+    # lattice rows (from the start) at y = 1.22 and 1.06; only the row 1.06 is within 0.16 m of
+    # the goal, and its points are 0.1 m from occupied centres (inside the 0.24 m margin)
+    start, goal = (1.0, 2.5), (2.0, 1.05)
+    strict = PlannerConfig(shortcut=False, goal_safety=0.24)
+    assert plan_path(occ, xs, ys, start, goal, strict).status == "no-plan"
+    plan = plan_path(occ, xs, ys, start, goal, PlannerConfig(shortcut=False, goal_safety=0.09))
+    assert plan.status == "astar"
+    # only the points within the goal tolerance (0.16 m) of the goal use the smaller margin
+    near = np.linalg.norm(plan.waypoints - goal, axis=1) <= 0.16 + 1e-9
+    assert np.all(plan.waypoints[~near, 1] - 0.975 >= 0.24 - cell)
