@@ -34,7 +34,7 @@ import numpy as np
 
 from navbench.geometry import AGENT_LENGTH
 from navbench.nav.controller import ControllerConfig, controller_step
-from navbench.plan.astar import PlannerConfig, PlannerMap, plan_on_map, _cached_map
+from navbench.plan.astar import PlannerConfig, PlannerMap, cached_planner_map, plan_on_map
 
 TIMING_KEYS = ("sim", "render", "estimate", "plan", "control")
 END_REASONS = ("reached", "step-limit", "stuck", "no-plan")
@@ -94,11 +94,12 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
 
     ``occ2d (nx, ny)`` bool / ``xs``, ``ys`` the world model's occupancy slice the agent plans
     on (see :mod:`navbench.plan.astar`); ``estimator`` implements
-    :class:`navbench.track.base.Estimator`. ``planner_map`` (optional) skips the per-map cache.
+    :class:`navbench.track.base.Estimator`. ``planner_map`` (optional, from
+    :func:`navbench.plan.astar.make_planner_map`) skips the per-map cache; its own config is used.
     """
     from navbench.sim.dynamics import clip_control
 
-    pm = planner_map if planner_map is not None else _cached_map(occ2d, xs, ys, config.planner)
+    pm = planner_map if planner_map is not None else cached_planner_map(occ2d, xs, ys, config.planner)
     start = np.asarray(task.start, dtype=np.float64).reshape(3)
     target = np.asarray(task.target, dtype=np.float64).reshape(2)
 

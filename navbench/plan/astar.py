@@ -120,7 +120,8 @@ def make_planner_map(occ2d, xs, ys, config: PlannerConfig = PlannerConfig()) -> 
 _CACHE: OrderedDict = OrderedDict()
 
 
-def _cached_map(occ2d, xs, ys, config) -> PlannerMap:
+def cached_planner_map(occ2d, xs, ys, config: PlannerConfig = PlannerConfig()) -> PlannerMap:
+    """:func:`make_planner_map`, memoised on the map content and config (the last 8 maps)."""
     occ = np.asarray(occ2d, dtype=bool)
     h = hashlib.sha1(occ.tobytes())
     h.update(str(occ.shape).encode())
@@ -293,5 +294,5 @@ def plan_path(occ2d, xs, ys, start_xy, goal_xy, config: PlannerConfig = PlannerC
     distance transform of the map is cached across calls (keyed by the map content), or pass
     ``planner_map`` from :func:`make_planner_map` to skip the cache lookup.
     """
-    pm = planner_map if planner_map is not None else _cached_map(occ2d, xs, ys, config)
+    pm = planner_map if planner_map is not None else cached_planner_map(occ2d, xs, ys, config)
     return plan_on_map(pm, start_xy, goal_xy)
