@@ -43,3 +43,29 @@ def test_render_T_equals_planar_render(room):
     b = render_map_T(vm, camera_pose(pose), HALF_CAMERA)
     np.testing.assert_array_equal(a.depth, b.depth)
     np.testing.assert_array_equal(a.rgb, b.rgb)
+
+
+def test_empty_space_skipping_finds_the_same_crossing(room):
+    """Skipping by the distance table == marching every sample, on a noisy map."""
+    vm = voxelize_level(room, grid_for_level(room, shape=(80, 60, 20)))
+    rng = np.random.default_rng(0)
+    vm.occ[:] = vm.occ + rng.normal(0, 0.15, vm.occ.shape).astype(np.float32)  # speckle
+    for parallel in (False, True):
+        fast = FastRenderer(vm, HALF_CAMERA, step=0.05, parallel=parallel)
+        march = FastRenderer(vm, HALF_CAMERA, step=0.05, parallel=parallel)
+        march.dist = np.zeros_like(march.dist)  # evaluate f at every sample
+        assert fast.dist.max() > 1
+        for pose in [(0.5, 0.5, 0.3), (2.0, 1.0, 2.0), (3.5, 2.6, -2.5)]:
+            a, b = fast.render(pose), march.render(pose)
+            np.testing.assert_array_equal(a.depth, b.depth)
+            np.testing.assert_array_equal(a.rgb, b.rgb)
+            np.testing.assert_array_equal(a.valid, b.valid)
+
+
+def test_render_map_cache_sees_in_place_edits(room):
+    vm = voxelize_level(room, grid_for_level(room, shape=(60, 60, 20)))
+    tiny = Intrinsics(8, 6, 4.0, 4.0, 4.0, 3.0)
+    before = render_map(vm, (0.5, 1.5, 0.0), tiny, step=0.02)
+    vm.occ[:] = 0.0  # nothing left to hit
+    after = render_map(vm, (0.5, 1.5, 0.0), tiny, step=0.02)
+    assert before.valid.all() and not after.valid.any()
