@@ -93,8 +93,15 @@ def test_kill_9_then_rerun_gives_the_uninterrupted_result(tmp_path, reference):
         statuses = [s for (s,) in con.execute("SELECT status FROM runs ORDER BY id")]
     assert statuses == ["running", "done"]  # the killed run never got to close itself
 
-    again = run_cli(root, ["--workers", "2"])  # nothing left to do
-    assert again.returncode == 0 and "stored 0 new episodes" in again.stdout
+    from navbench.cli.main import app
+
+    cwd = os.getcwd()
+    os.chdir(root)
+    try:  # nothing left to do
+        again = CliRunner().invoke(app, [*ARGS, "--workers", "2", "--db", f"sqlite:///{db}"])
+    finally:
+        os.chdir(cwd)
+    assert again.exit_code == 0 and "stored 0 new episodes" in again.output
     assert episodes(db) == reference
 
 
@@ -139,6 +146,7 @@ def test_tampered_trajectory_is_simulated_again(tmp_path, monkeypatch, reference
     assert episodes(root / "nb.db") == reference
 
 
+@pytest.mark.slow
 def test_ray_executor_matches_local(tmp_path, monkeypatch, reference):
     pytest.importorskip("ray", reason="ray is not installed (optional extra navbench[ray])")
     from navbench.cli.main import app

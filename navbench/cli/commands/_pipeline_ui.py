@@ -19,14 +19,15 @@ from rich.text import Text
 
 
 class RateColumn(ProgressColumn):
-    """Items per second, rich's recent-window speed (``ep/s``, ``views/s``...)."""
+    """Items per second since the bar started (``ep/s``, ``views/s``...), frozen when it ends."""
 
     def __init__(self, unit: str = "it"):
         super().__init__()
         self.unit = unit
 
     def render(self, task) -> Text:
-        rate = (task.finished_speed if task.finished else task.speed) or 0.0
+        t0, t1 = task.fields.get("t0"), task.fields.get("t_last")
+        rate = task.completed / (t1 - t0) if t0 is not None and t1 and t1 > t0 else 0.0
         unit = task.fields.get("unit", self.unit)
         return Text(f"{rate:.2f} {unit}/s", style="progress.data.speed")
 
@@ -62,10 +63,10 @@ class PipelineUI:
 
     def bar(self, description: str, total: int | None, unit: str = "it"):
         """A new bar; returns ``update(done, total=None, loss=None)``."""
-        tid = self.progress.add_task(description, total=total, extra="", unit=unit)
+        tid = self.progress.add_task(description, total=total, extra="", unit=unit, t0=time.perf_counter())
 
         def update(done: int, total_: int | None = None, loss: float | None = None) -> None:
-            fields = {"completed": done}
+            fields = {"completed": done, "t_last": time.perf_counter()}
             if total_ is not None:
                 fields["total"] = total_
             if loss is not None:
@@ -76,8 +77,12 @@ class PipelineUI:
 
     def counter(self, description: str, total: int, unit: str = "ep"):
         """A bar driven by increments: returns ``(advance(n), set_total(total))``."""
-        tid = self.progress.add_task(description, total=total, extra="", unit=unit)
-        return (lambda n: self.progress.advance(tid, n)), (lambda t: self.progress.update(tid, total=t))
+        tid = self.progress.add_task(description, total=total, extra="", unit=unit, t0=time.perf_counter())
+
+        def advance(n: int) -> None:
+            self.progress.update(tid, advance=n, t_last=time.perf_counter())
+
+        return advance, (lambda t: self.progress.update(tid, total=t))
 
 
 def make_context(ui: PipelineUI, db=None, force: bool | set = False, cache_root: str = "results/cache"):

@@ -66,7 +66,7 @@ def register(app: typer.Typer) -> None:
             report = report_stage(ctx, summary.cells, score)
             return summary, score, report
 
-        summary, score, report = run_and_record(prof, None, db, body)
+        summary, score, report = run_and_record(prof, "all", db, body)
         _print_scores(score.path)
         index = publish(report.path.parent, report_dir) / "index.html"
         console.print(f"profile [bold]{prof.name}[/bold]: {summary.stored} new episodes, "

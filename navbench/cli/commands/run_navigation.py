@@ -39,20 +39,21 @@ def navigate(ui, ctx, prof, run_id: int, executor: str = "local", address: str |
     return inputs, summary
 
 
-def run_and_record(prof, command: str, db_url: str | None, body, json_mode: bool = False):
+def run_and_record(prof, ref_name: str, db_url: str | None, body, json_mode: bool = False):
     """Open the database, start a run row, call ``body(ui, ctx, run_id)``, and close the run as
-    done, interrupted (Ctrl-C) or failed; the touched artifacts become the profile's gc ref."""
+    done, interrupted (Ctrl-C) or failed. The artifacts it touched become the cache ref
+    ``<ref_name>-<profile>`` (the latest run of that command and profile; a gc root)."""
     from navbench.cli.commands._pipeline_ui import PipelineUI, command_line, database, make_context
     from navbench.config import config_hash, to_jsonable
 
     with database(db_url) as db:
         config = to_jsonable(prof)
-        run_id = db.start_run(prof.name, command_line() if command is None else command, config,
-                              config_hash(config))
+        run_id = db.start_run(prof.name, command_line(), config, config_hash(config))
+        ui = PipelineUI(json_mode=json_mode)
+        ctx = make_context(ui, db)
         status = "failed"
         try:
-            with PipelineUI(json_mode=json_mode) as ui:
-                ctx = make_context(ui, db)
+            with ui:
                 result = body(ui, ctx, run_id)
             status = "done"
             return result
@@ -61,8 +62,8 @@ def run_and_record(prof, command: str, db_url: str | None, body, json_mode: bool
             raise
         finally:
             db.finish_run(run_id, status)
-            if "ctx" in locals() and ctx.used:
-                ctx.store.set_ref(f"{prof.name}", ctx.used)
+            if ctx.used:
+                ctx.store.set_ref(f"{ref_name}-{prof.name}", ctx.used)
 
 
 def register(app: typer.Typer) -> None:
@@ -104,6 +105,6 @@ def register(app: typer.Typer) -> None:
         def body(ui, ctx, run_id):
             return navigate(ui, ctx, prof, run_id, executor, address, chunk)
 
-        _, summary = run_and_record(prof, None, db, body)
+        _, summary = run_and_record(prof, "run-navigation", db, body)
         console.print(f"stored {summary.stored} new episodes; {summary.already_done + summary.stored}"
                       f"/{summary.total} of the grid are in the database")
