@@ -725,6 +725,8 @@ def run_bench(quick: bool = False, repeats: int | None = None, config: BenchConf
 
     def timed(key, group, label, times, unit="ms", paper=None, device="cpu", note=""):
         s = stats(times)
+        if not s.n:
+            note = "nothing was timed (no repeat completed)" + (f"; {note}" if note else "")
         add(Metric(key, group, label, unit, s.median if s.n else None, s, device, paper, note))
 
     def na(key, group, label, note, unit="ms", paper=None, device="cpu"):

@@ -136,3 +136,11 @@ def test_quick_bench_json_has_every_key(tmp_path):
         assert out[key], key
     assert out["paper"]["control_step_hz"] == 16.1
     assert "voxelized" in out["map"]
+
+
+def test_unknown_level_is_a_user_error(tmp_path):
+    from navbench.errors import LevelError
+
+    r = CliRunner().invoke(app, ["bench", "--level", "no-such-level", "--db", f"sqlite:///{tmp_path / 'b.db'}"])
+    assert isinstance(r.exception, LevelError)
+    assert not (tmp_path / "b.db").exists()  # failed before a run was recorded
