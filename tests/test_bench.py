@@ -144,3 +144,26 @@ def test_unknown_level_is_a_user_error(tmp_path):
     r = CliRunner().invoke(app, ["bench", "--level", "no-such-level", "--db", f"sqlite:///{tmp_path / 'b.db'}"])
     assert isinstance(r.exception, LevelError)
     assert not (tmp_path / "b.db").exists()  # failed before a run was recorded
+
+
+def test_bench_map_prefers_a_cached_fitted_map_of_the_level(tmp_path):
+    import hashlib
+    from pathlib import Path
+
+    from navbench.bench import bench_map
+    from navbench.level import level_path, resolve_level
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.worldmodel.grid import GridSpec, save_map, voxelize_level
+
+    level = resolve_level("house-1")
+    level_file = level_path("house-1")
+    key = hashlib.sha256(Path(level_file).read_bytes()).hexdigest()
+    small = voxelize_level(level, GridSpec((0, 0, -0.15), (11.4, 11.4, 1.35), (8, 8, 4)))
+    store = ArtifactStore(tmp_path / "cache")
+    store.write("fit-map", "a" * 64, lambda d: save_map(small, d / "map.npz"), config={},
+                inputs={"level": "0" * 64}, version=1)  # another level: ignored
+    store.write("fit-map", "b" * 64, lambda d: save_map(small, d / "map.npz"), config={},
+                inputs={"level": key}, version=1)
+    vmap, desc = bench_map(level, level_file, tmp_path / "cache")
+    assert vmap.spec.shape == (8, 8, 4)
+    assert desc.startswith("fitted map fit-map/bbbbbbbbbbbb")
