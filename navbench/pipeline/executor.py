@@ -51,6 +51,13 @@ class SerialExecutor:
         return False
 
 
+def _ignore_sigint() -> None:
+    """Pool workers ignore Ctrl-C: the parent handles it and terminates them."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class LocalExecutor:
     """A pool of ``workers`` local processes (forkserver or spawn start method)."""
 
@@ -62,7 +69,8 @@ class LocalExecutor:
         self.pool: ProcessPoolExecutor | None = None
 
     def __enter__(self):
-        self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self.context)
+        self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self.context,
+                                        initializer=_ignore_sigint)
         return self
 
     def __exit__(self, *exc):

@@ -69,19 +69,23 @@ def reference(tmp_path_factory) -> list[tuple]:
 
 
 @pytest.mark.slow
-def test_kill_9_then_rerun_gives_the_uninterrupted_result(tmp_path, reference):
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["kill-9", "ctrl-c"])
+def test_interrupt_then_rerun_gives_the_uninterrupted_result(tmp_path, reference, sig):
     root = workdir(tmp_path)
     db = root / "nb.db"
     env = {**os.environ, "NAVBENCH_DB": f"sqlite:///{db}"}
     proc = subprocess.Popen([NAVBENCH, *ARGS, "--workers", "2", "--chunk", "1"], cwd=root, env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+                            # a background shell may have left SIGINT ignored; a terminal would not
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 240
     while count(db) < 2 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.005)
-    os.killpg(proc.pid, signal.SIGKILL)  # the parent and its workers, no cleanup
-    proc.wait()
+    os.killpg(proc.pid, sig)  # the parent and its workers, as kill -9 or a terminal's Ctrl-C
+    proc.wait(timeout=120)
     stored = count(db)
-    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()[-2000:]
+    expected_rc = -signal.SIGKILL if sig == signal.SIGKILL else 130
+    assert proc.returncode == expected_rc, proc.stderr.read().decode()[-2000:]
     assert 0 < stored < TOTAL, f"kill landed outside the run ({stored} of {TOTAL} stored)"
 
     res = run_cli(root, ["--workers", "2"])
@@ -91,7 +95,8 @@ def test_kill_9_then_rerun_gives_the_uninterrupted_result(tmp_path, reference):
     assert rows == reference  # same cells, scores and trajectory keys as the uninterrupted run
     with sqlite3.connect(db) as con:
         statuses = [s for (s,) in con.execute("SELECT status FROM runs ORDER BY id")]
-    assert statuses == ["running", "done"]  # the killed run never got to close itself
+    # a killed run never gets to close itself; Ctrl-C closes it as interrupted
+    assert statuses == ["running" if sig == signal.SIGKILL else "interrupted", "done"]
 
     from navbench.cli.main import app
 

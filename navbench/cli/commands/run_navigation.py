@@ -58,8 +58,11 @@ def run_and_record(prof, ref_name: str, db_url: str | None, body, json_mode: boo
             status = "done"
             return result
         except KeyboardInterrupt:
+            # exit 130 ourselves: the CLI shell would turn it into exit status 0
             status = "interrupted"
-            raise
+            ui.console.print("interrupted: rerun the same command to finish; stored episodes are kept",
+                             style="yellow")
+            raise SystemExit(130) from None
         finally:
             db.finish_run(run_id, status)
             if ctx.used:
