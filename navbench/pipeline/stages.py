@@ -667,7 +667,8 @@ def _store_trajectory(ctx: StageContext, job: EpisodeJob, record: Any) -> str:
 
 def chunk_jobs(inputs: list[LevelInputs], cfg: NavigationConfig, jobs: list[EpisodeJob],
                chunk_size: int) -> list[ChunkSpec]:
-    """Group jobs by level into chunks of at most ``chunk_size`` episodes."""
+    """Group jobs by level into chunks of at most ``chunk_size`` episodes (absolute paths, so
+    workers with another working directory find the artifacts)."""
     by_level = {li.level.key: li for li in inputs}
     groups: dict[str, list[EpisodeJob]] = {}
     for j in jobs:
@@ -676,8 +677,9 @@ def chunk_jobs(inputs: list[LevelInputs], cfg: NavigationConfig, jobs: list[Epis
     for lk, js in groups.items():
         li = by_level[lk]
         for i in range(0, len(js), chunk_size):
-            specs.append(ChunkSpec(str(li.level.path), str(li.map.path), str(li.tasks.path), cfg.camera,
-                                   cfg.slice_mode, tuple(js[i:i + chunk_size])))
+            specs.append(ChunkSpec(str(Path(li.level.path).resolve()), str(Path(li.map.path).resolve()),
+                                   str(Path(li.tasks.path).resolve()), cfg.camera, cfg.slice_mode,
+                                   tuple(js[i:i + chunk_size])))
     return specs
 
 

@@ -163,3 +163,17 @@ def test_ray_executor_matches_local(tmp_path, monkeypatch, reference):
                                    "--db", f"sqlite:///{root / 'nb.db'}"])
     assert res.exit_code == 0, res.output
     assert episodes(root / "nb.db") == reference
+
+
+def test_make_executor_choices():
+    from navbench.errors import ConfigError
+    from navbench.pipeline.executor import LocalExecutor, SerialExecutor, make_executor
+
+    assert isinstance(make_executor("local", 1), SerialExecutor)
+    assert isinstance(make_executor("local", 3), LocalExecutor)
+    with pytest.raises(ConfigError):
+        make_executor("dask", 2)
+    with pytest.raises(ConfigError):
+        make_executor("local", 2, address="ray://head:10001")
+    with LocalExecutor(2) as ex:
+        assert sorted(ex.map_unordered(abs, [-3, 1, -2, 5, -4])) == [1, 2, 3, 4, 5]
