@@ -27,14 +27,14 @@ import platform
 import socket
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
 from navbench.errors import ConfigError
-from navbench.geometry import AGENT_LENGTH, AGENT_RADIUS, CAMERA_HEIGHT, CAMERAS, Intrinsics
+from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, CAMERAS, Intrinsics
 
 #: The paper's per-step figures (section 5, fig. 4c; Quadro RTX 8000 GPU), in our units.
 PAPER_FIGURES: dict[str, float] = {
