@@ -165,28 +165,48 @@ def free_space_hinge(f_free, f_solid, tau: float, delta: float):
     return torch.relu(f_free - (tau - delta)).mean() + torch.relu((tau + delta) - f_solid).mean()
 
 
-class _LazyAdam:
-    """Adam on the cells a step touched (``torch.optim.SparseAdam`` semantics), in numba."""
+class _SparseGrad:
+    """The gradient of one grid, accumulated from lookups, with the list of touched cells.
+
+    ``grad`` is dense (grid-shaped, zero outside the touched cells); ``adam_step`` applies
+    Adam to the touched cells only (``torch.optim.SparseAdam`` semantics: moments and values
+    of a cell change on the steps that touch it) and ``clear`` zeroes the touched rows.
+    """
 
     def __init__(self, param: np.ndarray, lr: float, betas=(0.9, 0.999), eps=1e-8):
-        self.p = param.reshape(-1, param.shape[-1] if param.ndim == 4 else 1)  # a view
-        self.mv = np.zeros(self.p.shape + (2,), np.float32)  # first and second moments, together
+        C = param.shape[-1] if param.ndim == 4 else 1
+        self.p = param.reshape(-1, C)  # a view of the grid
+        self.grad = np.zeros(param.shape, np.float32)
+        self.g = self.grad.reshape(-1, C)
+        self.mv = np.zeros(self.p.shape + (2,), np.float32)  # first and second moments
         self.stamp = np.zeros(len(self.p), np.int32)
+        self.touched = np.zeros(1 << 16, np.int64)
+        self.count = 0
         self.lr, self.b1, self.b2, self.eps = lr, betas[0], betas[1], eps
         self.t = 0
 
-    def step(self, grad: np.ndarray, idx_list) -> None:
+    def add(self, lookup) -> None:
+        """Scatter ``d loss / d values`` of a :class:`~navbench.worldmodel.diffrender.Lookup`."""
+        if lookup.values.grad is None:
+            return
+        g = lookup.values.grad.detach().double().numpy()
+        g = np.ascontiguousarray(g[:, None] if lookup.squeeze else g)
+        need = self.count + lookup.idx.size
+        if need > len(self.touched):
+            self.touched = np.concatenate([self.touched, np.zeros(need, np.int64)])
+        self.count = _scatter_mark(lookup.idx, lookup.w, g, self.g, self.stamp, self.t + 1,
+                                   self.touched, self.count)
+
+    def adam_step(self) -> None:
         self.t += 1
-        g = grad.reshape(self.p.shape)
-        for idx in idx_list:
-            _lazy_adam(self.p, g, self.mv, idx, self.stamp, self.t, self.lr, self.b1,
-                       self.b2, self.eps)
+        _adam_rows(self.p, self.g, self.mv, self.touched, self.count, self.t, self.lr,
+                   self.b1, self.b2, self.eps)
+        self.count = 0
 
-
-def _dense_zero(grad: np.ndarray, idx_list) -> None:
-    g = grad.reshape(-1, grad.shape[-1] if grad.ndim == 4 else 1)
-    for idx in idx_list:
-        _zero_rows(g, idx)
+    def clear(self) -> None:
+        self.t += 1
+        _zero_touched(self.g, self.touched, self.count)
+        self.count = 0
 
 
 def fit_map(views: Views, config: FitConfig = FitConfig(),
@@ -211,16 +231,13 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
     torch.set_num_threads(max(1, config.threads))
     try:
         spec, occ, col = initial_grids(views, config)
-        g_occ = np.zeros_like(occ)
-        g_col = np.zeros_like(col)
+        acc_occ, acc_col = _SparseGrad(occ, config.lr), _SparseGrad(col, config.lr)
         sigma2 = torch.tensor(float(config.sigma2_init), requires_grad=True)
         opt_s = torch.optim.Adam([sigma2], lr=config.sigma2_lr)
         if config.optimizer == "adam":
             occ_t, col_t = torch.from_numpy(occ), torch.from_numpy(col)  # share memory
-            occ_t.grad, col_t.grad = torch.from_numpy(g_occ), torch.from_numpy(g_col)
+            occ_t.grad, col_t.grad = torch.from_numpy(acc_occ.grad), torch.from_numpy(acc_col.grad)
             dense = torch.optim.Adam([occ_t, col_t], lr=config.lr, fused=True)
-        else:
-            lazy_occ, lazy_col = _LazyAdam(occ, config.lr), _LazyAdam(col, config.lr)
         sampler = BatchSampler(views, config.images_per_batch, config.pixels_per_image, config.seed)
         rng = np.random.default_rng([int(config.seed), 1])
         step, n = config.step, config.n_samples
@@ -245,16 +262,15 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
             opt_s.zero_grad()
             total.backward()
             for lk in occ_lookups:
-                lk.scatter_grad(g_occ)
-            out.col_lookup.scatter_grad(g_col)
-            occ_idx = [lk.idx for lk in occ_lookups]
+                acc_occ.add(lk)
+            acc_col.add(out.col_lookup)
             if config.optimizer == "adam":
                 dense.step()
-                _dense_zero(g_occ, occ_idx)
-                _dense_zero(g_col, [out.col_lookup.idx])
+                acc_occ.clear()
+                acc_col.clear()
             else:
-                lazy_occ.step(g_occ, occ_idx)
-                lazy_col.step(g_col, [out.col_lookup.idx])
+                acc_occ.adam_step()
+                acc_col.adam_step()
             if bool(mask.any()):
                 opt_s.step()
             with torch.no_grad():
@@ -285,34 +301,45 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
 
 
 @nb.njit(cache=True)
-def _lazy_adam(p, g, mv, idx, stamp, t, lr, b1, b2, eps):
-    """One Adam update of every row of ``p`` named in ``idx`` (once per step), zeroing ``g`` there."""
-    bc1 = 1.0 - b1 ** t
-    bc2 = 1.0 - b2 ** t
-    C = p.shape[1]
+def _scatter_mark(idx, w, g, grad, stamp, t, touched, count):
+    """``grad[idx] += w g`` (as :func:`~navbench.worldmodel.diffrender.scatter_add`), listing
+    each newly touched row once in ``touched`` (``stamp[row] == t`` marks it); returns the count."""
+    C = g.shape[1]
     for q in range(idx.shape[0]):
-        for a in range(idx.shape[1]):
+        for a in range(8):
             r = idx[q, a]
-            if stamp[r] == t:
-                continue
-            stamp[r] = t
             for c in range(C):
-                gg = g[r, c]
-                m = b1 * mv[r, c, 0] + (1.0 - b1) * gg
-                v = b2 * mv[r, c, 1] + (1.0 - b2) * gg * gg
-                mv[r, c, 0] = m
-                mv[r, c, 1] = v
-                p[r, c] -= lr * (m / bc1) / (math.sqrt(v / bc2) + eps)
-                g[r, c] = 0.0
+                grad[r, c] += w[q, a] * g[q, c]
+            if stamp[r] != t:
+                stamp[r] = t
+                touched[count] = r
+                count += 1
+    return count
 
 
 @nb.njit(cache=True)
-def _zero_rows(g, idx):
-    for q in range(idx.shape[0]):
-        for a in range(idx.shape[1]):
-            r = idx[q, a]
-            for c in range(g.shape[1]):
-                g[r, c] = 0.0
+def _adam_rows(p, g, mv, touched, count, t, lr, b1, b2, eps):
+    """One Adam update of the rows ``touched[:count]`` of ``p``, zeroing ``g`` there."""
+    bc1 = 1.0 - b1 ** t
+    bc2 = 1.0 - b2 ** t
+    C = p.shape[1]
+    for q in range(count):
+        r = touched[q]
+        for c in range(C):
+            gg = g[r, c]
+            m = b1 * mv[r, c, 0] + (1.0 - b1) * gg
+            v = b2 * mv[r, c, 1] + (1.0 - b2) * gg * gg
+            mv[r, c, 0] = m
+            mv[r, c, 1] = v
+            p[r, c] -= lr * (m / bc1) / (math.sqrt(v / bc2) + eps)
+            g[r, c] = 0.0
+
+
+@nb.njit(cache=True)
+def _zero_touched(g, touched, count):
+    for q in range(count):
+        for c in range(g.shape[1]):
+            g[touched[q], c] = 0.0
 
 
 def evaluate_map(vmap: VoxelMap, level, heldout: Views, step: float | None = None) -> dict:

@@ -8,7 +8,9 @@ import torch
 
 from navbench.errors import ConfigError
 from navbench.geometry import Intrinsics
-from navbench.worldmodel.fit import FitConfig, _LazyAdam, evaluate_map, fit_map, initial_grids
+from navbench.worldmodel.diffrender import Lookup
+from navbench.worldmodel.fit import FitConfig, _SparseGrad, evaluate_map, fit_map, initial_grids
+from navbench.worldmodel.grid import GridSpec
 from navbench.worldmodel.grid import grid_for_level, voxelize_level
 from navbench.worldmodel.views import collect_views
 
@@ -56,17 +58,25 @@ def test_progress_is_called(data):
 
 
 def test_lazy_adam_equals_adam_when_every_cell_is_touched():
+    """Lookups at every cell centre touch every cell: lazy Adam must then be torch's Adam."""
+    spec = GridSpec((0, 0, 0), (3, 4, 5), (3, 4, 5))
+    X, Y, Z = np.meshgrid(spec.centres(0), spec.centres(1), spec.centres(2), indexing="ij")
+    centres = np.stack([X, Y, Z], -1).reshape(-1, 3)
     rng = np.random.default_rng(0)
-    p = rng.random((3, 4, 5)).astype(np.float32)
+    p = rng.random(spec.shape).astype(np.float32)
     ref = torch.tensor(p.copy(), requires_grad=True)
     opt = torch.optim.Adam([ref], lr=0.05)
-    lazy = _LazyAdam(p, 0.05)
-    every = np.arange(p.size).reshape(-1, 1).repeat(8, axis=1)
+    acc = _SparseGrad(p, 0.05)
     for _ in range(5):
-        g = rng.standard_normal(p.shape).astype(np.float32)
-        ref.grad = torch.tensor(g)
+        target = torch.tensor(rng.random(len(centres)), dtype=torch.float32)
+        lk = Lookup(p, spec, centres)
+        ((lk.values - target) ** 2).sum().backward()
+        acc.add(lk)
+        np.testing.assert_allclose(acc.grad.ravel(), lk.values.grad.numpy(), rtol=1e-6, atol=1e-6)
+        ref.grad = torch.tensor(acc.grad.copy())
         opt.step()
-        lazy.step(g.copy(), [every])
+        acc.adam_step()
+        assert not acc.grad.any()  # cleared for the next step
     np.testing.assert_allclose(p, ref.detach().numpy(), rtol=1e-5, atol=1e-6)
 
 
