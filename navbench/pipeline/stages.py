@@ -623,21 +623,22 @@ class NavigationSummary:
     from_cache: int = 0       # trajectory artifact found, scored and stored without simulating
     ran: int = 0              # simulated now
     stored: int = 0           # new database rows
-    interrupted: bool = False
 
 
 def plan_jobs(inputs: list[LevelInputs], cfg: NavigationConfig) -> tuple[list[Cell], list[EpisodeJob]]:
-    """Every episode of the grid (cells x tasks x seeds), in a stable order."""
+    """Every episode of the grid (cells x tasks x seeds) in a stable order: level by level, and
+    within a level task by task and seed by seed across all cells, so that a partial run holds
+    comparable episodes of every estimator and noise level."""
     from navbench.plan.tasks import load_tasks
 
     cells = make_cells(inputs, cfg)
-    task_ids = {li.level.key: [t.id for t in load_tasks(li.tasks.path)] for li in inputs}
     jobs = []
-    for c in cells:
-        for tid in task_ids[c.level_key]:
+    for li in inputs:
+        level_cells = [c for c in cells if c.level_key == li.level.key]
+        for tid in [t.id for t in load_tasks(li.tasks.path)]:
             for s in range(cfg.seeds):
-                sim_seed, est_seed = episode_seeds(c.level_key, tid, s)
-                jobs.append(EpisodeJob(c, tid, s, sim_seed, est_seed))
+                sim_seed, est_seed = episode_seeds(li.level.key, tid, s)
+                jobs.extend(EpisodeJob(c, tid, s, sim_seed, est_seed) for c in level_cells)
     return cells, jobs
 
 

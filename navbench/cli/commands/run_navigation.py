@@ -16,7 +16,7 @@ def navigate(ui, ctx, prof, run_id: int, executor: str = "local", address: str |
     from navbench.pipeline.executor import make_executor
     from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
 
-    inputs = [build_level_inputs(ctx, prof, name) for name in prof.levels]
+    inputs = [build_level_inputs(ctx, prof, name) for name in dict.fromkeys(prof.levels)]
     cfg = NavigationConfig(estimators=tuple(prof.estimators), noise=tuple(prof.noise), seeds=prof.seeds,
                            camera=prof.camera, episode=dict(prof.episode),
                            estimator_options=dict(prof.estimator_options))
