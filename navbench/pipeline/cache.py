@@ -23,8 +23,9 @@ Garbage collection (:meth:`ArtifactStore.gc`) keeps
   the keys of its latest run there, one file per profile/command, see :meth:`ArtifactStore.set_ref`),
 * the ``keep_newest`` newest artifacts of every stage (default 1),
 * everything those depend on (their manifests' inputs, transitively),
-* and every artifact whose inputs are *all* kept and whose stage is per-item
-  (``episode`` trajectories hang off their level, map and task set),
+* and every artifact of a per-item stage (``episode`` trajectories hang off their level, map
+  and task set) whose inputs that are stored artifacts are all kept (inputs that name no
+  stored artifact are content hashes of committed files such as ``levels/NAME.json``),
 
 and removes all other artifacts and every stale temporary or quarantined directory.
 """
@@ -326,7 +327,9 @@ class ArtifactStore:
                 todo.extend((s, ik) for s in stage_of.get(ik, []))
         kept_keys = {k for _, k in kept}
         for i in infos:
-            if i.stage in PER_ITEM_STAGES and i.inputs and all(v in kept_keys for v in i.inputs.values()):
+            # input keys that name no stored artifact are content hashes of committed files
+            stored_inputs = [v for v in i.inputs.values() if v in stage_of]
+            if i.stage in PER_ITEM_STAGES and stored_inputs and all(v in kept_keys for v in stored_inputs):
                 kept.add((i.stage, i.key))
         removable = [i.path for i in infos if (i.stage, i.key) not in kept]
         removable += self.stale_temp_dirs()

@@ -119,6 +119,8 @@ def test_gc_keeps_refs_their_inputs_and_newest(store):
     _, down, _ = run_stage(store, "down", {"v": 1}, {"up": up_old}, 1, Counter())
     _, ep_kept, _ = run_stage(store, "episode", {"t": 0}, {"up": up_old}, 1, Counter())
     _, ep_gone, _ = run_stage(store, "episode", {"t": 1}, {"up": up}, 1, Counter())
+    # "level" names a committed file's content hash, not a stored artifact: it does not block
+    _, ep_ext, _ = run_stage(store, "episode", {"t": 2}, {"up": up_old, "level": "f" * 64}, 1, Counter())
     stale = store.root / "up" / ".tmp-deadbeef-999999999-abcd"
     stale.mkdir()
     store.set_ref("quick", [("down", down)])
@@ -129,7 +131,7 @@ def test_gc_keeps_refs_their_inputs_and_newest(store):
     assert all(p.exists() for p in removable)  # dry run removes nothing
     store.gc(keep_newest=0)
     left = {(i.stage, i.key) for i in store.ls()}
-    assert left == {("up", up_old), ("down", down), ("episode", ep_kept)}
+    assert left == {("up", up_old), ("down", down), ("episode", ep_kept), ("episode", ep_ext)}
     assert not stale.exists()
 
 

@@ -107,6 +107,14 @@ def test_all_then_cached_rerun_then_tampered_map(project, monkeypatch):
     for stage in ("collect-views", "fit-map", "sample-tasks", "score", "report", "episode"):
         assert stage in out
 
+    # gc keeps everything the profile's latest run used, episodes included; a stray collection goes
+    assert "would remove 0 entries" in invoke("cache", "gc", "--keep-newest", "0", "--dry-run")
+    stray = invoke("collect-views", "tiny", "--count", "3", "--seed", "7", "--profile", "tiny.toml")
+    stray_key = stray.split("key ")[1].split()[0]
+    out = invoke("cache", "gc", "--keep-newest", "0")
+    assert "removed 1 entries" in out and stray_key in out
+    assert "0 new episodes, 6/6 stored" in invoke("all", "--profile", "tiny.toml")
+
 
 def test_collect_views_and_fit_map_commands(project, monkeypatch):
     out = invoke("collect-views", "tiny", "--count", "6", "--seed", "3", "--profile", "tiny.toml")
