@@ -7,8 +7,9 @@ log and progress callbacks, the ``force`` set), its config and the references of
 returns a reference (stage, key, path) to its verified artifact. Keys are computed before any
 work (:func:`navbench.pipeline.cache.run_stage`), so a cached stage costs one checksum pass.
 Stages never build SQL or ad-hoc paths: artifacts live in the store, rows go through
-:class:`navbench.pipeline.db.ResultsDB`. Heavy modules (torch, numba) are imported inside the
-compute functions only, so a fully cached pipeline never loads them.
+:class:`navbench.pipeline.db.ResultsDB`. Heavy work and torch are imported inside the compute
+functions only: a fully cached pipeline never loads torch (resolving the FitConfig defaults for
+the fit-map key imports the world-model module, which brings numba) and takes about a second.
 
 Keys of committed, human-readable inputs are content hashes: a level's key is the sha256 of its
 ``levels/NAME.json`` text, a task set's key the sha256 of its task file text (whether the file
