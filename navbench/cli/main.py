@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> None:
     from navbench.errors import NavbenchError
 
     try:
-        app(args=argv, standalone_mode=False)
+        rv = app(args=argv, standalone_mode=False)
     except NavbenchError as e:
         typer.secho(f"error: {e}", err=True, fg=typer.colors.RED)
         sys.exit(2)
@@ -83,6 +83,9 @@ def main(argv: list[str] | None = None) -> None:
             e.show()
             sys.exit(e.exit_code)
         raise
+    # with standalone_mode=False, click returns typer.Exit(n)'s code (and 1 after Ctrl-C)
+    if isinstance(rv, int) and rv:
+        sys.exit(rv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -42,3 +42,25 @@ def test_navbench_error_is_one_line(tmp_path, monkeypatch, capsys):
     assert e.value.code == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "walls[0].thickness" in err
+
+
+def test_exit_code_of_command_is_propagated(monkeypatch):
+    import pytest
+    import typer
+
+    from navbench.cli import main as cli_main
+
+    sub = typer.Typer()
+
+    @sub.command()
+    def fail():
+        raise typer.Exit(3)
+
+    @sub.command()
+    def other():
+        pass
+
+    monkeypatch.setattr(cli_main, "app", sub)
+    with pytest.raises(SystemExit) as e:
+        cli_main.main(["fail"])
+    assert e.value.code == 3
