@@ -68,20 +68,40 @@ def cell_max(occ):
     return out
 
 
-def skip_distance(occ: np.ndarray, tau: float, cap: int = 1000) -> np.ndarray:
+#: z half-width (cells) of the slab skip table.
+SLAB = 2
+
+
+def skip_distance(occ: np.ndarray, tau: float, slab: int | None = None, cap: int = 1000) -> np.ndarray:
     """Empty-space skip table ``(nx-1, ny-1, nz-1)`` int32 over the interpolation cells.
 
     An interpolation cell (the box between 8 neighbouring cell centres) is *empty* when the
     maximum of its 8 values is ``<= tau``: trilinear ``f`` inside it cannot exceed ``tau``.
-    The table holds, for every cell, the Chebyshev distance (in cells) to the nearest non-empty
-    cell (0 for a non-empty one, ``cap`` when there is none).
+    ``slab=None``: the Chebyshev distance (cells) from every cell to the nearest non-empty
+    cell, so all cells closer than that are empty. ``slab=s``: the Chebyshev distance in
+    ``x, y`` only, to the nearest non-empty cell of the layers ``k - s .. k + s`` (for the
+    nearly horizontal rays of a level, whose room is wide but low in cells). 0 for a
+    non-empty cell, ``cap`` when there is none.
     """
     from scipy.ndimage import distance_transform_cdt
 
     empty = cell_max(np.ascontiguousarray(occ, np.float32)) <= tau
+    structure = np.ones((3, 3, 3), bool)
+    if slab is not None:
+        full = ~empty
+        near = full.copy()
+        for dz in range(1, slab + 1):
+            near[:, :, dz:] |= full[:, :, :-dz]
+            near[:, :, :-dz] |= full[:, :, dz:]
+        empty = ~near
+        structure = np.zeros((3, 3, 3), bool)
+        structure[:, :, 1] = True  # distances within a layer
     if empty.all():
         return np.full(empty.shape, cap, np.int32)
-    d = distance_transform_cdt(empty, metric="chessboard").astype(np.int32)
+    if not empty.any():
+        return np.zeros(empty.shape, np.int32)
+    d = distance_transform_cdt(empty, metric=structure).astype(np.int32)
+    d[d < 0] = cap  # a layer with no non-empty cell
     return np.minimum(d, cap)
 
 
@@ -110,6 +130,25 @@ def _tri(g, i, j, k, tx, ty, tz):
 
 
 @nb.njit(cache=True, inline="always")
+def _tri3(col, i, j, k, tx, ty, tz, out):
+    """Trilinear RGB of ``col (nx, ny, nz, 3)`` clipped to [0, 1] into ``out (3,)``."""
+    w000 = (1 - tx) * (1 - ty) * (1 - tz)
+    w100 = tx * (1 - ty) * (1 - tz)
+    w010 = (1 - tx) * ty * (1 - tz)
+    w110 = tx * ty * (1 - tz)
+    w001 = (1 - tx) * (1 - ty) * tz
+    w101 = tx * (1 - ty) * tz
+    w011 = (1 - tx) * ty * tz
+    w111 = tx * ty * tz
+    for ch in range(3):
+        v = (w000 * col[i, j, k, ch] + w100 * col[i + 1, j, k, ch]
+             + w010 * col[i, j + 1, k, ch] + w110 * col[i + 1, j + 1, k, ch]
+             + w001 * col[i, j, k + 1, ch] + w101 * col[i + 1, j, k + 1, ch]
+             + w011 * col[i, j + 1, k + 1, ch] + w111 * col[i + 1, j + 1, k + 1, ch])
+        out[ch] = min(1.0, max(0.0, v))
+
+
+@nb.njit(cache=True, inline="always")
 def _f(occ, ux, uy, uz, nx, ny, nz):
     i, tx = _cell(ux, nx)
     j, ty = _cell(uy, ny)
@@ -117,11 +156,11 @@ def _f(occ, ux, uy, uz, nx, ny, nz):
     return _tri(occ, i, j, k, tx, ty, tz)
 
 
-def _render_kernel(occ, col, dist, u_c, inv_size, R, rays, step, n, tau, depth, rgb, valid):
+def _render_kernel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, depth, rgb, valid):
     """Fill ``depth (H, W)``, ``rgb (H, W, 3)``, ``valid (H, W)`` in place.
 
-    ``col (3, nx, ny, nz)``: colour channels first; ``dist (nx-1, ny-1, nz-1)``: the skip
-    table of :func:`skip_distance`. ``u_c (3,)``: camera centre in continuous cell indices; ``inv_size (3,)``: 1 / cell size;
+    ``col (nx, ny, nz, 3)``; ``dist (nx-1, ny-1, nz-1)``: the skip
+    table of :func:`skip_distance` and ``dist2`` its slab version (``slab=SLAB``). ``u_c (3,)``: camera centre in continuous cell indices; ``inv_size (3,)``: 1 / cell size;
     ``R (3, 3)``: camera-to-world rotation; ``rays (H, W, 3)``: camera-frame ``K^-1 [i j 1]``.
     """
     nx, ny, nz = occ.shape
@@ -135,9 +174,12 @@ def _render_kernel(occ, col, dist, u_c, inv_size, R, rays, step, n, tau, depth, 
             dz = (R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2) * inv_size[2] * step
             hit = 0
             fp = 0.0
-            # samples that move at most one cell along every axis
+            # reciprocal per-sample displacement (cells): all axes, xy only, z only
             amax = max(abs(dx), max(abs(dy), abs(dz)))
             inv_amax = 1.0 / amax if amax > 0 else 1e30
+            axy = max(abs(dx), abs(dy))
+            inv_axy = 1.0 / axy if axy > 0 else 1e30
+            zlim = SLAB / abs(dz) if dz != 0 else 1e30
             m = 1
             while m <= n:
                 ux = u_c[0] + m * dx
@@ -150,8 +192,13 @@ def _render_kernel(occ, col, dist, u_c, inv_size, R, rays, step, n, tau, depth, 
                 if D > 0:
                     # every interpolation cell within Chebyshev distance D - 1 has max <= tau:
                     # the next floor((D - 1) / amax) samples stay inside them (clamping is
-                    # 1-Lipschitz), so none of them can cross
-                    m += 1 + int((D - 1) * inv_amax)
+                    # 1-Lipschitz), so none of them can cross. The slab table does the same
+                    # for the box of xy half-width D2 - 1 and z half-width SLAB.
+                    skip = int((D - 1) * inv_amax)
+                    s2 = min(int((dist2[i, j, k] - 1) * inv_axy), int(zlim))
+                    if s2 > skip:
+                        skip = s2
+                    m += 1 + skip
                     continue
                 fp = _tri(occ, i, j, k, tx, ty, tz)
                 if fp > tau:
@@ -181,9 +228,7 @@ def _render_kernel(occ, col, dist, u_c, inv_size, R, rays, step, n, tau, depth, 
             i, tx = _cell(u_c[0] + ms * dx, nx)
             j, ty = _cell(u_c[1] + ms * dy, ny)
             k, tz = _cell(u_c[2] + ms * dz, nz)
-            for ch in range(3):
-                v = _tri(col[ch], i, j, k, tx, ty, tz)
-                rgb[r, c, ch] = min(1.0, max(0.0, v))
+            _tri3(col, i, j, k, tx, ty, tz, rgb[r, c])
 
 
 render_kernel = nb.njit(cache=True, parallel=True)(_render_kernel)
@@ -214,10 +259,11 @@ class FastRenderer:
         self.n = int(round(max_range / self.step))
         self.rays = _rays(intrinsics)
         self.dist = skip_distance(vmap.occ, vmap.tau)
+        self.dist2 = skip_distance(vmap.occ, vmap.tau, slab=SLAB)
         spec = vmap.spec
         self._lo = np.asarray(spec.lo, np.float64)
         self._inv = 1.0 / spec.size
-        self._col = np.ascontiguousarray(vmap.col.transpose(3, 0, 1, 2))  # (3, nx, ny, nz)
+        self._col = np.ascontiguousarray(vmap.col, np.float32)
 
     def render_T(self, T_wc: np.ndarray) -> Frame:
         """Render from an arbitrary camera-to-world transform ``T_wc`` (4x4, OpenCV camera axes)."""
@@ -227,7 +273,7 @@ class FastRenderer:
         rgb = np.empty((H, W, 3), np.float32)
         valid = np.empty((H, W), np.bool_)
         u_c = (T_wc[:3, 3] - self._lo) * self._inv - 0.5
-        self._kernel(self.vmap.occ, self._col, self.dist, u_c, self._inv,
+        self._kernel(self.vmap.occ, self._col, self.dist, self.dist2, u_c, self._inv,
                       np.ascontiguousarray(T_wc[:3, :3]), self.rays, self.step, self.n,
                       self.vmap.tau, depth, rgb, valid)
         return Frame(rgb, depth, valid)

@@ -54,7 +54,8 @@ def test_empty_space_skipping_finds_the_same_crossing(room):
         fast = FastRenderer(vm, HALF_CAMERA, step=0.05, parallel=parallel)
         march = FastRenderer(vm, HALF_CAMERA, step=0.05, parallel=parallel)
         march.dist = np.zeros_like(march.dist)  # evaluate f at every sample
-        assert fast.dist.max() > 1
+        march.dist2 = np.zeros_like(march.dist2)
+        assert fast.dist.max() > 1 and fast.dist2.max() > fast.dist.max()
         for pose in [(0.5, 0.5, 0.3), (2.0, 1.0, 2.0), (3.5, 2.6, -2.5)]:
             a, b = fast.render(pose), march.render(pose)
             np.testing.assert_array_equal(a.depth, b.depth)
