@@ -47,9 +47,10 @@ class RayRender(NamedTuple):
     hit: torch.Tensor  # (R,) bool: the ray has a crossing (eq. 1 defined)
 
 
-def grid_tensors(spec: GridSpec, dtype=torch.float32) -> tuple[torch.Tensor, torch.Tensor]:
+def grid_tensors(spec: GridSpec, dtype=torch.float32, device=None) -> tuple[torch.Tensor, torch.Tensor]:
     """``lo (3,)`` and ``size (3,)`` of ``spec`` as tensors."""
-    return (torch.tensor(spec.lo, dtype=dtype), torch.tensor(spec.size, dtype=dtype))
+    return (torch.tensor(spec.lo, dtype=dtype, device=device),
+            torch.tensor(spec.size, dtype=dtype, device=device))
 
 
 def trilinear_t(grid: torch.Tensor, spec: GridSpec, points: torch.Tensor) -> torch.Tensor:
@@ -59,9 +60,9 @@ def trilinear_t(grid: torch.Tensor, spec: GridSpec, points: torch.Tensor) -> tor
     Returns ``(...)`` or ``(..., C)``.
     """
     nx, ny, nz = spec.shape
-    lo, size = grid_tensors(spec, points.dtype)
+    lo, size = grid_tensors(spec, points.dtype, points.device)
     u = (points - lo) / size - 0.5
-    n = torch.tensor([nx - 1, ny - 1, nz - 1], dtype=points.dtype)
+    n = torch.tensor([nx - 1, ny - 1, nz - 1], dtype=points.dtype, device=points.device)
     u = torch.minimum(torch.clamp(u, min=0.0), n)
     i0 = torch.minimum(u.detach().floor().long(), (n - 1).long())
     t = u - i0.to(points.dtype)
@@ -96,13 +97,15 @@ def render_rays_dense(occ: torch.Tensor, col: torch.Tensor, spec: GridSpec, tau:
     batches.
     """
     R = origins.shape[0]
-    ks = torch.arange(n + 1, dtype=origins.dtype) * step  # (n + 1,)
+    dev = origins.device
+    ks = torch.arange(n + 1, dtype=origins.dtype, device=dev) * step  # (n + 1,)
     pts = origins[:, None, :] + ks[None, :, None] * dirs[:, None, :]
     f = trilinear_t(occ, spec, pts)  # (R, n + 1)
     above = (f[:, 1:] > tau).detach()
     any_above = above.any(dim=1)
-    m = torch.where(any_above, above.float().argmax(dim=1) + 1, torch.ones(R, dtype=torch.long))
-    rows = torch.arange(R)
+    m = torch.where(any_above, above.float().argmax(dim=1) + 1,
+                    torch.ones(R, dtype=torch.long, device=dev))
+    rows = torch.arange(R, device=dev)
     f_plus, f_minus = f[rows, m], f[rows, m - 1]
     hit = any_above & (f_minus <= tau).detach()
     return _finish(col, spec, origins, dirs, f_minus, f_plus, (m - 1).to(origins.dtype) * step,

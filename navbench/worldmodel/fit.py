@@ -2,10 +2,19 @@
 
 Eq. 3 is minimised by Adam over ``M_occ``, ``M_col`` (lr 0.05) and the Laplace scale ``sigma2``
 (its own Adam, lr 0.01; ``sigma1 = sigma2 / 5``), with Monte-Carlo batches of 25 images x 200
-pixels drawn by a seeded generator. Each step renders the batch's rays with the fast bracketing
-path of :func:`navbench.worldmodel.diffrender.render_rays` and takes the mean eq. 2 NLL over
+pixels drawn by a seeded generator. Each step renders the batch's rays with the sparse
+bracketing path :func:`navbench.worldmodel.diffrender.render_rays_sparse` (numba crossing
+search; autograd only on the values at ``p-``, ``p+`` and ``p*``, whose gradients are scattered
+back to the grids through the trilinear weights — the same gradients as
+:func:`~navbench.worldmodel.diffrender.render_rays`, tested) and takes the mean eq. 2 NLL over
 the rays that have a crossing and a valid observed depth (rays without a crossing contribute
 nothing, see :mod:`navbench.worldmodel.diffrender`).
+
+Optimiser: ``optimizer="lazy-adam"`` (default) applies Adam to the cells a step touched
+(``torch.optim.SparseAdam`` semantics: a cell's moments and value change only on steps whose
+batch reaches it), which costs O(batch) instead of O(grid) per step — a dense update of the
+3.2 M grid values is slower than the whole rest of a step on 2 CPU cores.
+``optimizer="adam"`` is the paper's dense Adam (``torch.optim.Adam(fused=True)``).
 
 The paper does not say how the grids are initialised, and an empty grid has no crossing and so
 no gradient. Two documented additions, both named :class:`FitConfig` options:
@@ -24,7 +33,7 @@ no gradient. Two documented additions, both named :class:`FitConfig` options:
     carves the free space every observed ray passes through, so surfaces appear where eq. 1 can
     then refine them. ``free_space_weight = 0`` is the paper's pure objective.
 
-``scripts/fit_quality.py`` measures both variants on a level.
+``scripts/fit_quality.py`` measures the variants on a level (held-out views, slice scores).
 """
 
 from __future__ import annotations
