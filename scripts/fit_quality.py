@@ -2,6 +2,7 @@
 
 Usage: .venv/bin/python scripts/fit_quality.py LEVEL [--views 5000] [--heldout 200]
        [--camera half] [--steps 10000] [--variants aux,pure] [--cache DIR] [--out FILE.json]
+       [--save-maps DIR]
 
 Collects (or reuses from --cache) the training views (seed 1) and held-out views (seed 2, never
 used for fitting), fits each variant with FitConfig defaults except the named changes, and
@@ -42,6 +43,7 @@ def main() -> None:
     ap.add_argument("--variants", default="aux,pure")
     ap.add_argument("--cache", default=None)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--save-maps", default=None, help="directory to save each variant's map.npz")
     args = ap.parse_args()
     level = resolve_level(args.level)
     intr = camera_by_name(args.camera)
@@ -62,7 +64,11 @@ def main() -> None:
     for name in args.variants.split(","):
         cfg = FitConfig(steps=args.steps, **VARIANTS[name])
         c0, w0 = time.process_time(), time.perf_counter()
-        _, m = fit_map(train, cfg, heldout=held, level=level)
+        vmap, m = fit_map(train, cfg, heldout=held, level=level)
+        if args.save_maps:
+            from navbench.worldmodel.grid import save_map
+
+            save_map(vmap, Path(args.save_maps) / f"{level.name}-{name}.npz")
         m.update(variant=name, level=level.name, views=args.views, camera=args.camera,
                  wall_s=time.perf_counter() - w0, cpu_s=time.process_time() - c0)
         m.pop("loss_curve", None)

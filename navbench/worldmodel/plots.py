@@ -72,6 +72,7 @@ def draw_isometric(ax3d, vmap: VoxelMap, max_points: int = 30_000, marker_size: 
     ax3d.set_xlabel("x (m)")
     ax3d.set_ylabel("y (m)")
     ax3d.set_zlabel("z (m)")
+    ax3d.locator_params(axis="z", nbins=2)
     if title:
         ax3d.set_title(title)
     return sc
