@@ -21,7 +21,6 @@ Pure library: arrays and dicts in and out, no files, printing or database.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -83,7 +82,8 @@ class Trajectory:
 
 
 def record_trajectories(level, count: int, steps: int, noise: str = "tracking", seed: int = 0,
-                        clearance: float = 1.2 * AGENT_LENGTH, waypoint_range: float = 3.0) -> list[Trajectory]:
+                        clearance: float = 1.2 * AGENT_LENGTH,
+                        waypoint_range: float = 3.0) -> list[Trajectory]:
     """Drive the simulator (no camera) ``count`` times for ``steps`` controls; see the module doc.
 
     Trajectory ``i`` uses simulator seed ``seed * 100003 + i``; start poses and waypoints come

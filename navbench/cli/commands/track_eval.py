@@ -56,13 +56,19 @@ def register(app: typer.Typer) -> None:
     ):
         """Record trajectories once (tracking-study noise), replay every estimator on them.
 
-        --json prints one object keyed by estimator (plus "meta"). Reports per estimator the location RMSE (m) and orientation RMSE (deg) over trajectories
-        and the per-step time (render + estimate, ms).
+        Reports per estimator the location RMSE (m) and orientation RMSE (deg) over
+        trajectories and the per-step time (render + estimate, ms); --json prints one object
+        keyed by estimator (plus "meta").
         """
         import time
 
         from navbench.level import resolve_level
-        from navbench.track.study import STUDY_EMISSION_OPTIONS, TrackingStudyConfig, run_tracking_study, summarize
+        from navbench.track.study import (
+            STUDY_EMISSION_OPTIONS,
+            TrackingStudyConfig,
+            run_tracking_study,
+            summarize,
+        )
 
         lvl = resolve_level(level)
         names = tuple(parse_list(estimators))
@@ -82,7 +88,8 @@ def register(app: typer.Typer) -> None:
 
             with Progress(console=console, transient=True) as bar:
                 task = bar.add_task(f"tracking on {lvl.name}", total=trajectories)
-                res = run_tracking_study(lvl, vmap, cfg, progress=lambda d, n: bar.update(task, completed=d))
+                res = run_tracking_study(lvl, vmap, cfg,
+                                         progress=lambda d, n: bar.update(task, completed=d))
         summary = summarize(res)
         if json_out:
             meta = {"level": lvl.name, "map": map_, "camera": camera, "trajectories": trajectories,
