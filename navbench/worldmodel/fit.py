@@ -128,6 +128,9 @@ class BatchSampler:
         th = np.asarray(views.poses[:, 2])
         self.R = np.stack([camera_rotation(t) for t in th]) if len(th) else np.zeros((0, 3, 3))
         self.W = views.intrinsics.width
+        # plain ndarray views of (possibly memory-mapped) arrays: no copy, no memmap overhead
+        self.rgb, self.depth, self.valid = (np.asarray(a) for a in (views.rgb, views.depth, views.valid))
+        self.poses = np.asarray(views.poses)
 
     def draw(self):
         import torch
@@ -141,10 +144,10 @@ class BatchSampler:
         order = np.lexsort((ii, jj, ib))  # sorted reads from memory-mapped arrays
         ib, jj, ii, pix = ib[order], jj[order], ii[order], pix[order]
         dirs = np.einsum("bij,bj->bi", self.R[ib], self.cam_rays[pix])
-        origins = np.column_stack([v.poses[ib, 0], v.poses[ib, 1], np.full(len(ib), v.camera_height)])
-        rgb = np.asarray(v.rgb[ib, jj, ii], np.float32) / 255.0
-        depth = np.asarray(v.depth[ib, jj, ii], np.float32)
-        valid = np.asarray(v.valid[ib, jj, ii]) & np.isfinite(depth)
+        origins = np.column_stack([self.poses[ib, 0], self.poses[ib, 1], np.full(len(ib), v.camera_height)])
+        rgb = self.rgb[ib, jj, ii].astype(np.float32) / 255.0
+        depth = self.depth[ib, jj, ii].astype(np.float32)
+        valid = self.valid[ib, jj, ii] & np.isfinite(depth)
         depth = np.where(valid, depth, 0.0).astype(np.float32)
         t = lambda a: torch.from_numpy(np.ascontiguousarray(a, np.float32))  # noqa: E731
         return t(origins), t(dirs), t(rgb), t(depth), torch.from_numpy(valid)
