@@ -22,6 +22,7 @@ VARIANTS = {
     "pure": {"free_space_weight": 0.0},  # eq. 3 alone (box init)
     "pure-empty": {"free_space_weight": 0.0, "init": "empty"},
     "aux-empty": {"init": "empty"},
+    "aux2": {"free_space_samples": 2},
     "aux1": {"free_space_samples": 1},
     "adam": {"optimizer": "adam"},
     "pure-adam": {"free_space_weight": 0.0, "optimizer": "adam"},

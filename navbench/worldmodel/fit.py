@@ -71,7 +71,7 @@ class FitConfig:
     init_solid: float = 1.0  # initial occupancy outside the box (init="box")
     init_colour: float = 0.5  # initial colour (all channels)
     free_space_weight: float = 1.0  # weight of the auxiliary free-space term; 0 = pure eq. 3
-    free_space_samples: int = 2  # free (and as many behind-surface) points per ray
+    free_space_samples: int = 1  # free (and as many behind-surface) points per ray
     free_space_margin: float = 0.05  # m of depth kept clear of the observed surface
     free_space_delta: float = 0.25  # hinge margin around tau
     min_sigma2: float = 1e-3  # lower clamp of sigma2 (m)
