@@ -70,3 +70,17 @@ def test_render_map_cache_sees_in_place_edits(room):
     vm.occ[:] = 0.0  # nothing left to hit
     after = render_map(vm, (0.5, 1.5, 0.0), tiny, step=0.02)
     assert before.valid.all() and not after.valid.any()
+
+
+def test_voxelized_level_renders_close_to_the_true_camera(room):
+    from navbench.sim.camera import RaycastCamera
+
+    vm = voxelize_level(room, grid_for_level(room, shape=(100, 100, 20)))
+    cam = RaycastCamera(room, HALF_CAMERA)
+    for pose in [(0.6, 0.6, 0.4), (2.2, 2.5, -1.2), (3.4, 0.5, 2.5)]:
+        true, ours = cam.render(pose), render_map(vm, pose, HALF_CAMERA)
+        both = true.valid & ours.valid
+        assert both.mean() > 0.99
+        err = np.abs(true.depth[both] - ours.depth[both])
+        assert np.median(err) < 0.005 and np.percentile(err, 95) < 0.05
+        assert np.median(np.abs(true.rgb[both] - ours.rgb[both])) < 0.05
