@@ -34,6 +34,25 @@ no gradient. Two documented additions, both named :class:`FitConfig` options:
     then refine them. ``free_space_weight = 0`` is the paper's pure objective.
 
 ``scripts/fit_quality.py`` measures the variants on a level (held-out views, slice scores).
+Measured with it (5000 ``half`` views, seed 1; 200 held-out views, seed 2; 10 000 steps; depth
+MAE m / RGB L1 / slice precision / recall / fit seconds on the shared 2-core machine):
+
+===================================  ===============================  ===============================
+variant                              house-1                          maze
+===================================  ===============================  ===============================
+defaults (box init + free space, 1)  0.0149 / 0.038 / 0.999 / 1.000  0.0182 / 0.042 / 0.982 / 1.000
+                                     / 187-196 s                      / 175 s
+free space with 2 samples per ray    0.0147 / 0.038 / 0.999 / 0.999  0.0184 / 0.041 / 0.986 / 1.000
+pure eq. 3 (box init)                0.0157 / 0.038 / 0.990 / 1.000  0.0197 / 0.042 / 0.892 / 1.000
+                                     / 165 s CPU
+pure eq. 3, empty init               no crossing ever: coverage 0, nothing learned
+free space (2), empty init           0.0146 / 0.038 / 0.999 / 0.993
+pure eq. 3, dense Adam (paper)       0.0157 / 0.084 / 0.984 / 1.000
+===================================  ===============================  ===============================
+
+The pure objective leaves spurious occupied cells in the maze (precision 0.89); the free-space
+term removes them. Dense Adam keeps moving colour cells by momentum after the batch stops
+reaching them, which doubles the colour error; lazy Adam does not.
 """
 
 from __future__ import annotations
