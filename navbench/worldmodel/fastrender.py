@@ -175,11 +175,12 @@ def _render_kernel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, 
             hit = 0
             fp = 0.0
             # reciprocal per-sample displacement (cells): all axes, xy only, z only
+            # (capped at n samples so the int conversions below never overflow)
             amax = max(abs(dx), max(abs(dy), abs(dz)))
-            inv_amax = 1.0 / amax if amax > 0 else 1e30
+            inv_amax = min(1.0 / amax, float(n)) if amax > 0 else float(n)
             axy = max(abs(dx), abs(dy))
-            inv_axy = 1.0 / axy if axy > 0 else 1e30
-            zlim = SLAB / abs(dz) if dz != 0 else 1e30
+            inv_axy = min(1.0 / axy, float(n)) if axy > 0 else float(n)
+            zlim = min(SLAB / abs(dz), float(n)) if dz != 0 else float(n)
             m = 1
             while m <= n:
                 ux = u_c[0] + m * dx
