@@ -35,7 +35,7 @@ import numba as nb
 import numpy as np
 import torch
 
-from navbench.worldmodel.fastrender import _cell, _f, _tri  # noqa: F401  (numba helpers)
+from navbench.worldmodel.fastrender import _cell, _f  # numba helpers shared with the renderer
 from navbench.worldmodel.grid import GridSpec
 
 
