@@ -48,9 +48,11 @@ Optimisers (option ``optimizer``)
     its exact quadratic; ``gn_iters`` (10) iterations on ``gn_pixels`` (3000) fixed random
     pixels, the first ``gn_geo_iters`` (5) on the point-to-plane term alone (a wider basin of
     convergence for rotation errors of several degrees, see :func:`align_gauss_newton`).
-    Default because it is as accurate and ~3.5x faster (``maze``, 30 trajectories x 100
-    steps, half camera, shared 2-core CPU): true map, Gauss-Newton loc RMSE median 1.4 mm,
-    rot 0.026 deg, step (render + estimate) median 15 ms vs Adam 1.8 mm, 0.062 deg, 54 ms.
+    Default because it is about as accurate and 3.5-4x faster (``maze``, 30 trajectories x
+    100 steps, half camera, shared 2-core CPU): true map (``geo_weight=10``), Gauss-Newton
+    loc RMSE median 1.4 mm, rot 0.026 deg, step (render + estimate) median 15 ms vs Adam
+    1.8 mm, 0.062 deg, 54 ms; fitted map (defaults), Gauss-Newton 11.2 mm, 0.52 deg, 8 ms vs
+    Adam 9.8 mm, 0.40 deg, 30 ms.
     ``irls_eps = (0.01, 0.01)`` (colour units, metres): below these the residuals are weighted
     quadratically (a Huber-like core), which averages the errors of a fitted map better than a
     tighter floor; tuned on 10 ``maze`` trajectories with a fitted map (1500 steps), checked on
