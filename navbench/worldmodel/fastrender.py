@@ -165,7 +165,12 @@ def _render_kernel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, 
     """
     nx, ny, nz = occ.shape
     H, W = rays.shape[0], rays.shape[1]
-    for r in nb.prange(H):
+    half = (H + 1) // 2
+    for rr in nb.prange(H):
+        # interleave rows (even rows first, then odd ones): numba splits the prange into equal
+        # contiguous chunks per thread, and the cost of a row depends on what it sees (upper rows
+        # march to far walls, lower rows stop at the floor), so contiguous halves are unbalanced
+        r = 2 * rr if rr < half else 2 * (rr - half) + 1
         for c in range(W):
             a0, a1, a2 = rays[r, c, 0], rays[r, c, 1], rays[r, c, 2]
             # world direction times step, in cell units
