@@ -260,3 +260,27 @@ def summarize(results: dict[str, Any], threshold_m: float = 0.1) -> dict[str, di
             "runs": int(len(loc)),
         }
     return out
+
+
+def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None = None) -> list[dict]:
+    """One row per (estimator, trajectory, seed) of :func:`run_tracking_study` results, in the
+    layout of :meth:`navbench.pipeline.db.ResultsDB.add_tracking_rows` (times are per-step
+    medians in ms; RMSE in m and deg)."""
+    cfg = results.get("config", {})
+    options = cfg.get("estimator_options", {}) or {}
+    noise = cfg.get("noise")
+    rows = []
+    for name, r in results["estimators"].items():
+        for i in range(len(r["loc_rmse_m"])):
+            rows.append({
+                "study_key": study_key, "level": results["level"], "map_key": map_key,
+                "estimator": name, "estimator_options": dict(options.get(name, {})),
+                "noise": noise if isinstance(noise, str) else str(noise),
+                "trajectory_id": int(r["trajectory"][i]), "seed": int(r["seed"][i]),
+                "steps": int(r["step_ms"].shape[1]),
+                "loc_rmse_m": float(r["loc_rmse_m"][i]), "rot_rmse_deg": float(r["rot_rmse_deg"][i]),
+                "step_ms_median": float(np.nanmedian(r["step_ms"][i])),
+                "render_ms": float(np.nanmedian(r["render_ms"][i])),
+                "estimate_ms": float(np.nanmedian(r["estimate_ms"][i])),
+            })
+    return rows

@@ -69,6 +69,7 @@ def test_track_eval_cli_prints_json(tmp_path, level):
         "--estimators", "ours,emission,no-map,dynamics,gt",
         "-o", "emission.steps=3", "-o", "emission.pixels=100", "-o", "ours.optimizer=adam",
         "-o", "ours.adam_steps=10", "--emission-trajectories", "1",
+        "--db", f"sqlite:///{tmp_path / 'r.db'}",
     ])
     assert result.exit_code == 0, result.output
     out = json.loads(result.stdout)
@@ -79,6 +80,33 @@ def test_track_eval_cli_prints_json(tmp_path, level):
     assert out["emission"]["runs"] == 1 and out["ours"]["runs"] == 2
     assert out["gt"]["loc_rmse_m_median"] == 0.0
     assert out["meta"]["options"]["ours"] == {"optimizer": "adam", "adam_steps": 10}
+    # one stored row per (estimator, trajectory, seed): 2 each, emission limited to 1
+    assert out["meta"]["stored"]["rows"] == 4 * 2 + 1
+    from navbench.pipeline.db import ResultsDB
+
+    frame = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}").tracking_frame()
+    assert len(frame) == 9
+    ours = frame[frame.estimator == "ours"].sort_values("trajectory_id")
+    assert list(ours.trajectory_id) == [0, 1]
+    assert ours.loc_rmse_m.median() == pytest.approx(out["ours"]["loc_rmse_m_median"])
+
+
+def test_track_eval_rerun_stores_no_duplicates(tmp_path, level):
+    from navbench.cli.main import app
+    from navbench.level import save_level
+    from navbench.pipeline.db import ResultsDB
+
+    path = save_level(level, tmp_path / "room.json")
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    args = ["track-eval", str(path), "--trajectories", "2", "--steps", "3", "--json",
+            "--estimators", "dynamics,gt", "--db", url]
+    first = json.loads(CliRunner().invoke(app, args).stdout)
+    second = json.loads(CliRunner().invoke(app, args).stdout)
+    assert first["meta"]["stored"]["rows"] == 4 and second["meta"]["stored"]["rows"] == 0
+    assert first["meta"]["stored"]["study_key"] == second["meta"]["stored"]["study_key"]
+    assert len(ResultsDB(url).tracking_frame()) == 4
+    none = json.loads(CliRunner().invoke(app, args[:-2] + ["--no-store"]).stdout)
+    assert none["meta"]["stored"] is None
 
 
 def test_track_eval_cli_rejects_bad_options(tmp_path, level):

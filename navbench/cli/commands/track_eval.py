@@ -53,6 +53,10 @@ def register(app: typer.Typer) -> None:
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
                                           "study's default (20 x 500)."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object keyed by estimator."),
+        db: str = typer.Option(None, "--db", help="Results database URL (default $NAVBENCH_DB or "
+                               "sqlite:///results/navbench.db)."),
+        no_store: bool = typer.Option(False, "--no-store", help="Do not store the per-trajectory "
+                                      "rows in the results database."),
     ):
         """Record trajectories once (tracking-study noise), replay every estimator on them.
 
@@ -91,11 +95,12 @@ def register(app: typer.Typer) -> None:
                 res = run_tracking_study(lvl, vmap, cfg,
                                          progress=lambda d, n: bar.update(task, completed=d))
         summary = summarize(res)
+        stored = None if no_store else _store(res, cfg, lvl, map_, db)
         if json_out:
             meta = {"level": lvl.name, "map": map_, "camera": camera, "trajectories": trajectories,
                     "steps": steps, "seeds": seeds, "options": opts,
                     "trajectory_limits": cfg.trajectory_limits,
-                    "wall_s": round(time.perf_counter() - t0, 3)}
+                    "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}
             print_json({**summary, "meta": meta})
             return
         from rich.table import Table
@@ -110,6 +115,9 @@ def register(app: typer.Typer) -> None:
                       f"{100 * s['frac_loc_rmse_below_0_1m']:.0f} %", f"{s['rot_rmse_deg_median']:.3f}",
                       f"{s['step_ms_median']:.2f}")
         console.print(t)
+        if stored:
+            console.print(f"stored {stored['rows']} new tracking rows (run {stored['run_id']}, "
+                          f"study {stored['study_key'][:12]}) in {stored['db']}")
 
 
 def _load_map(spec: str, level):
@@ -126,3 +134,30 @@ def _load_map(spec: str, level):
     from navbench.worldmodel.grid import load_map
 
     return load_map(spec)
+
+
+def _store(res, cfg, level, map_spec: str, db_url: str | None) -> dict:
+    """Store one row per (estimator, trajectory, seed) in the results database.
+
+    The study key hashes the level file content, the map (file sha256, or 'true') and the study
+    config, so a rerun of the same study adds no duplicate rows.
+    """
+    import hashlib
+    import sys
+    from pathlib import Path
+
+    from navbench.config import config_hash
+    from navbench.level import dumps_level
+    from navbench.pipeline.db import ResultsDB
+    from navbench.track.study import tracking_rows
+
+    map_key = "true" if map_spec == "true" else hashlib.sha256(Path(map_spec).read_bytes()).hexdigest()
+    level_hash = hashlib.sha256(dumps_level(level).encode()).hexdigest()
+    study_key = config_hash({"stage": "track-eval", "level": level_hash, "map": map_key,
+                             "config": res.get("config", {})})
+    rdb = ResultsDB(db_url)
+    run_id = rdb.start_run(profile="track-eval", command=" ".join(["navbench"] + sys.argv[1:]),
+                           config=res.get("config", {}), config_hash=study_key)
+    n = rdb.add_tracking_rows(run_id, tracking_rows(res, study_key, map_key))
+    rdb.finish_run(run_id)
+    return {"run_id": run_id, "study_key": study_key, "rows": n, "db": rdb.display_url}
