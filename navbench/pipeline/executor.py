@@ -52,10 +52,23 @@ class SerialExecutor:
 
 
 def _ignore_sigint() -> None:
-    """Pool workers ignore Ctrl-C: the parent handles it and terminates them."""
+    """Pool workers ignore Ctrl-C: the parent handles it and terminates them.
+
+    Each worker also runs its compiled kernels (numba) and torch on one thread unless the user
+    set ``NUMBA_NUM_THREADS``/``OMP_NUM_THREADS``: the pool already has a process per core, and
+    threads on top of that wait on each other's scheduler slices.
+    """
+    import os
     import signal
+    import sys
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if "numba" in sys.modules:  # already imported (fork start method): limit it directly
+        import numba
+
+        numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, int(os.environ["NUMBA_NUM_THREADS"])))
 
 
 class LocalExecutor:

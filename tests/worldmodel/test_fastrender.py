@@ -84,3 +84,14 @@ def test_voxelized_level_renders_close_to_the_true_camera(room):
         err = np.abs(true.depth[both] - ours.depth[both])
         assert np.median(err) < 0.005 and np.percentile(err, 95) < 0.05
         assert np.median(np.abs(true.rgb[both] - ours.rgb[both])) < 0.05
+
+
+def test_parallel_and_serial_kernels_have_separate_caches():
+    """Two dispatchers of one Python function would share numba's on-disk cache entry, and the
+    parallel one would then load the serial machine code (this happened: half speed)."""
+    from navbench.worldmodel import fastrender
+
+    par, ser = fastrender.render_kernel, fastrender.render_kernel_serial
+    assert par.py_func.__qualname__ != ser.py_func.__qualname__
+    assert par._cache._cache_file._index_name != ser._cache._cache_file._index_name
+    assert par.targetoptions.get("parallel") and not ser.targetoptions.get("parallel")
