@@ -123,6 +123,9 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         from navbench import levelgen as _lg  # light: numpy only
 
         gen_cfg = {"level": to_jsonable(cfg), "generator": getattr(_lg, "GENERATOR_VERSION", 0)}
+        origin = ("the benchmark's seed" if cfg.name in _lg.BENCHMARK_LEVELS
+                  else f"seed {cfg.seed} (the profile's level_seed)")
+        ctx.log(f"make-level: no {committed}; {cfg.name} is generated from {origin}")
         path, _, cached = ctx.run("make-level", gen_cfg, {}, compute)
         f = path / "level.json"
         key = _sha256_text(f)
