@@ -32,5 +32,5 @@ paper: setup
 	$(BIN)/navbench all --profile paper
 
 clean:
-	rm -rf results/cache results/report results/navbench.db .pytest_cache
+	rm -rf results/cache results/report results/navbench.db .pytest_cache .numba_cache
 	find . -name __pycache__ -type d -prune -exec rm -rf {} +
