@@ -97,6 +97,11 @@ class FitConfig:
     optimizer: str = "lazy-adam"  # "adam": dense torch Adam (fused); "lazy-adam": touched cells only
     seed: int = 0  # seed of the batch sampling
     threads: int = 1  # torch threads during the fit (the torch graph is tiny; 1 avoids spin contention)
+    # where the fit runs: "cpu" = the sparse numba path above; "cuda" / "cuda:N" = the dense
+    # torch path (every ray sample through autograd, fused Adam) on that GPU; "auto" = "cuda"
+    # when torch sees one, else "cpu"; "torch-cpu" = the dense torch path on the CPU (slow; it
+    # exists so the GPU path's arithmetic is tested on machines without a GPU)
+    device: str = "cpu"
 
     def __post_init__(self):
         if self.steps < 0 or self.images_per_batch < 1 or self.pixels_per_image < 1:
@@ -105,6 +110,8 @@ class FitConfig:
             raise ConfigError("fit: n_samples >= 1 and max_range > 0 required")
         if self.init not in ("box", "empty"):
             raise ConfigError(f"fit: unknown init {self.init!r}; choose 'box' or 'empty'")
+        if not (self.device in ("cpu", "auto", "torch-cpu") or self.device.startswith("cuda")):
+            raise ConfigError(f"fit: unknown device {self.device!r}; choose cpu, auto, cuda[:N] or torch-cpu")
         if self.optimizer not in ("adam", "lazy-adam"):
             raise ConfigError(f"fit: unknown optimizer {self.optimizer!r}; choose 'adam' or 'lazy-adam'")
         if self.sigma2_init <= 0 or self.free_space_weight < 0:
@@ -258,6 +265,9 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
 
     if len(views) == 0:
         raise ConfigError("fit: no views")
+    device = resolve_fit_device(config.device)
+    if device != "cpu":
+        return _fit_map_dense(views, config, device, progress, heldout, level)
     old_threads = torch.get_num_threads()
     torch.set_num_threads(max(1, config.threads))
     try:
@@ -325,6 +335,93 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
         "final_loss": float(np.mean(recent[-100:])) if recent else math.nan,
         "hit_fraction": float(np.mean(hits[-100:])) if hits else math.nan,
         "sigma2": float(sigma2.detach()), "loss_curve": curve,
+    }
+    if heldout is not None:
+        metrics.update(evaluate_map(vmap, level, heldout))
+    return vmap, metrics
+
+
+def resolve_fit_device(device: str) -> str:
+    """``"cpu"`` (sparse numba path), a torch device string for the dense path, from a
+    :class:`FitConfig` ``device``; ``"auto"`` picks CUDA when torch sees it."""
+    import torch
+
+    if device == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if device == "torch-cpu":
+        return "torch-cpu"
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise ConfigError(f"fit: device {device!r} asked for, but torch sees no CUDA device")
+    return device
+
+
+def _fit_map_dense(views: Views, config: FitConfig, device: str, progress, heldout, level):
+    """The fit on a torch device: eq. 1 by :func:`render_rays_dense` (all ``n`` samples of every
+    ray through autograd), eq. 2-3 and the free-space term as in :func:`fit_map`, and torch's
+    Adam (``fused=True`` on CUDA) on the whole grids. Same config, same outputs."""
+    import torch
+
+    from navbench.config import to_jsonable
+    from navbench.worldmodel.diffrender import laplace_nll, render_rays_dense, trilinear_t
+
+    dev = torch.device("cpu" if device == "torch-cpu" else device)
+    spec, occ0, col0 = initial_grids(views, config)
+    occ = torch.tensor(occ0, device=dev, requires_grad=True)
+    col = torch.tensor(col0, device=dev, requires_grad=True)
+    sigma2 = torch.tensor(float(config.sigma2_init), device=dev, requires_grad=True)
+    fused = dev.type == "cuda"
+    opt = torch.optim.Adam([occ, col], lr=config.lr, fused=fused)
+    opt_s = torch.optim.Adam([sigma2], lr=config.sigma2_lr)
+    sampler = BatchSampler(views, config.images_per_batch, config.pixels_per_image, config.seed)
+    rng = np.random.default_rng([int(config.seed), 1])
+    step, n = config.step, config.n_samples
+    curve, recent, hits = [], [], []
+    sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
+    t0 = time.perf_counter()
+    for it in range(config.steps):
+        o, d, rgb, dep, valid = sampler.draw()
+        o_d, d_d = o.to(dev), d.to(dev)
+        rgb_d, dep_d, valid_d = rgb.to(dev), dep.to(dev), valid.to(dev)
+        out = render_rays_dense(occ, col, spec, config.tau, o_d, d_d, step, n)
+        mask = out.hit & valid_d
+        loss = laplace_nll(out.rgb, out.depth, rgb_d, dep_d, sigma2, mask=mask)
+        total = loss
+        if config.free_space_weight > 0:
+            free, solid = free_space_points(o.numpy(), d.numpy(), dep.numpy(), valid.numpy(), rng,
+                                            config.free_space_samples, config.free_space_margin)
+            pts = torch.from_numpy(np.concatenate([free, solid]).astype(np.float32)).to(dev)
+            f = trilinear_t(occ, spec, pts)
+            total = total + config.free_space_weight * free_space_hinge(
+                f[: len(free)], f[len(free):], config.tau, config.free_space_delta)
+        opt.zero_grad(set_to_none=True)
+        opt_s.zero_grad(set_to_none=True)
+        total.backward()
+        opt.step()
+        if bool(mask.any()):
+            opt_s.step()
+        with torch.no_grad():
+            sigma2.clamp_(min=config.min_sigma2)
+        lv = float(loss.detach())
+        recent.append(lv)
+        hits.append(float(mask.float().mean()))
+        if (it + 1) % 100 == 0:
+            curve.append(float(np.mean(recent[-100:])))
+        if progress is not None and ((it + 1) % 10 == 0 or it + 1 == config.steps):
+            progress(it + 1, config.steps, lv)
+    sync()
+    elapsed = time.perf_counter() - t0
+    occ_np = occ.detach().to("cpu").numpy().astype(np.float32)
+    col_np = col.detach().to("cpu").numpy().astype(np.float32)
+    meta = {"source": "fit_map", "level": views.level, "step": step, "max_range": config.max_range,
+            "sigma2": float(sigma2.detach()), "config": to_jsonable(config), "views": len(views),
+            "device": str(dev)}
+    vmap = VoxelMap(spec, occ_np, col_np, config.tau, meta)
+    metrics = {
+        "fit_time_s": elapsed, "steps": config.steps,
+        "ms_per_step": 1000 * elapsed / max(1, config.steps),
+        "final_loss": float(np.mean(recent[-100:])) if recent else math.nan,
+        "hit_fraction": float(np.mean(hits[-100:])) if hits else math.nan,
+        "sigma2": float(sigma2.detach()), "loss_curve": curve, "device": str(dev),
     }
     if heldout is not None:
         metrics.update(evaluate_map(vmap, level, heldout))

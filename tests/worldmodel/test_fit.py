@@ -97,3 +97,27 @@ def test_evaluate_true_map_is_near_perfect(room, data):
     m = evaluate_map(vm, room, held, step=0.02)
     assert m["depth_mae_m"] < 0.01 and m["coverage"] > 0.999
     assert m["slice_precision"] > 0.99 and m["slice_recall"] > 0.99
+
+
+def test_dense_torch_path_fits_the_tiny_level_too(room, data):
+    """The GPU path (dense eq. 1 through autograd, torch Adam) run on the CPU: same objective,
+    so it reaches the same kind of map as the sparse path on the same data and budget."""
+    train, held = data
+    vmap, m = fit_map(train, FitConfig(seed=7, device="torch-cpu", **QUICK), heldout=held, level=room)
+    assert m["device"] == "cpu" and vmap.meta["device"] == "cpu"
+    assert m["coverage"] > 0.99
+    assert m["depth_mae_m"] < 0.05
+    assert m["slice_precision"] > 0.9 and m["slice_recall"] > 0.9
+    assert m["loss_curve"][-1] < m["loss_curve"][0]
+    assert vmap.occ.dtype == np.float32 and vmap.occ.shape == (80, 80, 20)
+
+
+def test_device_option_is_checked():
+    with pytest.raises(ConfigError, match="unknown device"):
+        FitConfig(device="tpu")
+    if not torch.cuda.is_available():
+        from navbench.worldmodel.fit import resolve_fit_device
+
+        assert resolve_fit_device("auto") == "cpu"
+        with pytest.raises(ConfigError, match="no CUDA"):
+            resolve_fit_device("cuda")
