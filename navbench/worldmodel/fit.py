@@ -260,7 +260,6 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
     """
     import torch
 
-    from navbench.config import to_jsonable
     from navbench.worldmodel.diffrender import Lookup, laplace_nll, render_rays_sparse
 
     if len(views) == 0:
@@ -282,7 +281,7 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
         sampler = BatchSampler(views, config.images_per_batch, config.pixels_per_image, config.seed)
         rng = np.random.default_rng([int(config.seed), 1])
         step, n = config.step, config.n_samples
-        curve, recent, hits = [], [], []
+        log = _FitLog(config.steps, progress)
         t0 = time.perf_counter()
         for it in range(config.steps):
             o, d, rgb, dep, valid = sampler.draw()
@@ -316,25 +315,52 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
                 opt_s.step()
             with torch.no_grad():
                 sigma2.clamp_(min=config.min_sigma2)
-            lv = float(loss.detach())
-            recent.append(lv)
-            hits.append(float(mask.float().mean()))
-            if (it + 1) % 100 == 0:
-                curve.append(float(np.mean(recent[-100:])))
-            if progress is not None and ((it + 1) % 10 == 0 or it + 1 == config.steps):
-                progress(it + 1, config.steps, lv)
+            log.record(it, loss, mask)
         elapsed = time.perf_counter() - t0
     finally:
         torch.set_num_threads(old_threads)
-    meta = {"source": "fit_map", "level": views.level, "step": step, "max_range": config.max_range,
-            "sigma2": float(sigma2.detach()), "config": to_jsonable(config), "views": len(views)}
+    return _finish_fit(views, config, spec, occ, col, float(sigma2.detach()), elapsed, log,
+                       heldout, level)
+
+
+class _FitLog:
+    """Per-step bookkeeping shared by both fit paths: the NLL, the hit fraction, the loss curve
+    (mean of every 100 steps) and the ``progress`` callback (every 10 steps and at the end)."""
+
+    def __init__(self, steps: int, progress):
+        self.steps, self.progress = steps, progress
+        self.recent: list[float] = []
+        self.hits: list[float] = []
+        self.curve: list[float] = []
+
+    def record(self, it: int, loss, mask) -> None:
+        lv = float(loss.detach())
+        self.recent.append(lv)
+        self.hits.append(float(mask.float().mean()))
+        if (it + 1) % 100 == 0:
+            self.curve.append(float(np.mean(self.recent[-100:])))
+        if self.progress is not None and ((it + 1) % 10 == 0 or it + 1 == self.steps):
+            self.progress(it + 1, self.steps, lv)
+
+
+def _finish_fit(views: Views, config: FitConfig, spec, occ: np.ndarray, col: np.ndarray,
+                sigma2: float, elapsed: float, log: _FitLog, heldout, level,
+                extra: dict | None = None) -> tuple[VoxelMap, dict]:
+    """The :class:`VoxelMap` and metrics of a finished fit (see :func:`fit_map`); ``extra`` is
+    added to both the map's meta and the metrics."""
+    from navbench.config import to_jsonable
+
+    extra = extra or {}
+    meta = {"source": "fit_map", "level": views.level, "step": config.step,
+            "max_range": config.max_range, "sigma2": sigma2, "config": to_jsonable(config),
+            "views": len(views), **extra}
     vmap = VoxelMap(spec, occ, col, config.tau, meta)
     metrics = {
         "fit_time_s": elapsed, "steps": config.steps,
         "ms_per_step": 1000 * elapsed / max(1, config.steps),
-        "final_loss": float(np.mean(recent[-100:])) if recent else math.nan,
-        "hit_fraction": float(np.mean(hits[-100:])) if hits else math.nan,
-        "sigma2": float(sigma2.detach()), "loss_curve": curve,
+        "final_loss": float(np.mean(log.recent[-100:])) if log.recent else math.nan,
+        "hit_fraction": float(np.mean(log.hits[-100:])) if log.hits else math.nan,
+        "sigma2": sigma2, "loss_curve": log.curve, **extra,
     }
     if heldout is not None:
         metrics.update(evaluate_map(vmap, level, heldout))
@@ -361,7 +387,6 @@ def _fit_map_dense(views: Views, config: FitConfig, device: str, progress, heldo
     Adam (``fused=True`` on CUDA) on the whole grids. Same config, same outputs."""
     import torch
 
-    from navbench.config import to_jsonable
     from navbench.worldmodel.diffrender import laplace_nll, render_rays_dense, trilinear_t
 
     dev = torch.device("cpu" if device == "torch-cpu" else device)
@@ -375,7 +400,7 @@ def _fit_map_dense(views: Views, config: FitConfig, device: str, progress, heldo
     sampler = BatchSampler(views, config.images_per_batch, config.pixels_per_image, config.seed)
     rng = np.random.default_rng([int(config.seed), 1])
     step, n = config.step, config.n_samples
-    curve, recent, hits = [], [], []
+    log = _FitLog(config.steps, progress)
     sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
     t0 = time.perf_counter()
     for it in range(config.steps):
@@ -401,31 +426,12 @@ def _fit_map_dense(views: Views, config: FitConfig, device: str, progress, heldo
             opt_s.step()
         with torch.no_grad():
             sigma2.clamp_(min=config.min_sigma2)
-        lv = float(loss.detach())
-        recent.append(lv)
-        hits.append(float(mask.float().mean()))
-        if (it + 1) % 100 == 0:
-            curve.append(float(np.mean(recent[-100:])))
-        if progress is not None and ((it + 1) % 10 == 0 or it + 1 == config.steps):
-            progress(it + 1, config.steps, lv)
+        log.record(it, loss, mask)
     sync()
     elapsed = time.perf_counter() - t0
-    occ_np = occ.detach().to("cpu").numpy().astype(np.float32)
-    col_np = col.detach().to("cpu").numpy().astype(np.float32)
-    meta = {"source": "fit_map", "level": views.level, "step": step, "max_range": config.max_range,
-            "sigma2": float(sigma2.detach()), "config": to_jsonable(config), "views": len(views),
-            "device": str(dev)}
-    vmap = VoxelMap(spec, occ_np, col_np, config.tau, meta)
-    metrics = {
-        "fit_time_s": elapsed, "steps": config.steps,
-        "ms_per_step": 1000 * elapsed / max(1, config.steps),
-        "final_loss": float(np.mean(recent[-100:])) if recent else math.nan,
-        "hit_fraction": float(np.mean(hits[-100:])) if hits else math.nan,
-        "sigma2": float(sigma2.detach()), "loss_curve": curve, "device": str(dev),
-    }
-    if heldout is not None:
-        metrics.update(evaluate_map(vmap, level, heldout))
-    return vmap, metrics
+    return _finish_fit(views, config, spec, occ.detach().to("cpu").numpy().astype(np.float32),
+                       col.detach().to("cpu").numpy().astype(np.float32), float(sigma2.detach()),
+                       elapsed, log, heldout, level, {"device": str(dev)})
 
 
 @nb.njit(cache=True)
