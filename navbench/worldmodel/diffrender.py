@@ -20,11 +20,14 @@ bracketing samples) and ``M_col`` through ``g(p*)``. By default ``p*`` enters ``
 gradient stopped (colour does not move the surface); ``colour_moves_surface=True`` keeps the
 full derivative (used by the finite-difference test).
 
-Two implementations with the same values and gradients:
+Three implementations with the same values and gradients:
 
 * :func:`render_rays_dense` — the reference: every sample evaluated with autograd;
-* :func:`render_rays` — the training path: the crossing search runs without gradients
-  (numba, early termination), then only ``p-``, ``p+`` and ``p*`` are evaluated with autograd.
+* :func:`render_rays` — the CPU training path: the crossing search runs without gradients
+  (numba, early termination), then only ``p-``, ``p+`` and ``p*`` are evaluated with autograd;
+* :func:`render_rays_torch` — the device path (CUDA): the crossing search evaluates every
+  sample in torch *without* autograd on the grids' device, then ``p-``, ``p+`` and ``p*`` with
+  autograd, so the backward pass touches 24 cells per ray instead of ``8 (n + 1)``.
 """
 
 from __future__ import annotations
@@ -53,12 +56,10 @@ def grid_tensors(spec: GridSpec, dtype=torch.float32, device=None) -> tuple[torc
             torch.tensor(spec.size, dtype=dtype, device=device))
 
 
-def trilinear_t(grid: torch.Tensor, spec: GridSpec, points: torch.Tensor) -> torch.Tensor:
-    """``f``/``g`` in torch: trilinear lookup of ``grid (nx, ny, nz[, C])`` at ``points (..., 3)``.
-
-    Differentiable w.r.t. ``grid`` and ``points``; border-clamped like the numpy reference.
-    Returns ``(...)`` or ``(..., C)``.
-    """
+def _stencil(spec: GridSpec, points: torch.Tensor):
+    """``(base, t)`` of the trilinear stencil at ``points (..., 3)``: the flat index
+    ``(i ny + j) nz + k`` of the stencil's lowest cell and the in-cell offsets ``t (..., 3)``
+    (border-clamped, ``0 <= i <= nx - 2``: the same cells as the numba ``_cell``)."""
     nx, ny, nz = spec.shape
     lo, size = grid_tensors(spec, points.dtype, points.device)
     u = (points - lo) / size - 0.5
@@ -66,20 +67,50 @@ def trilinear_t(grid: torch.Tensor, spec: GridSpec, points: torch.Tensor) -> tor
     u = torch.minimum(torch.clamp(u, min=0.0), n)
     i0 = torch.minimum(u.detach().floor().long(), (n - 1).long())
     t = u - i0.to(points.dtype)
+    return (i0[..., 0] * ny + i0[..., 1]) * nz + i0[..., 2], t
+
+
+def _offsets(spec: GridSpec) -> list[int]:
+    """Flat index offsets of the 8 stencil cells, in the order ``dx, dy, dz``."""
+    _, ny, nz = spec.shape
+    return [(dx * ny + dy) * nz + dz for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)]
+
+
+def trilinear_t(grid: torch.Tensor, spec: GridSpec, points: torch.Tensor) -> torch.Tensor:
+    """``f``/``g`` in torch: trilinear lookup of ``grid (nx, ny, nz[, C])`` at ``points (..., 3)``.
+
+    Differentiable w.r.t. ``grid`` and ``points``; border-clamped like the numpy reference.
+    Returns ``(...)`` or ``(..., C)``.
+    """
+    nx, ny, nz = spec.shape
+    base, t = _stencil(spec, points)
     C = grid.shape[3] if grid.dim() == 4 else 1
     flat = grid.reshape(nx * ny * nz, C)
-    base = (i0[..., 0] * ny + i0[..., 1]) * nz + i0[..., 2]
     tx, ty, tz = t[..., 0:1], t[..., 1:2], t[..., 2:3]
     out = 0.0
+    offs = iter(_offsets(spec))
     for dx in (0, 1):
         wx = tx if dx else 1 - tx
         for dy in (0, 1):
             wy = ty if dy else 1 - ty
             for dz in (0, 1):
                 wz = tz if dz else 1 - tz
-                idx = base + (dx * ny + dy) * nz + dz
-                out = out + (wx * wy * wz) * flat[idx]
+                out = out + (wx * wy * wz) * flat[base + next(offs)]
     return out if grid.dim() == 4 else out[..., 0]
+
+
+def stencil_mask(spec: GridSpec, points: torch.Tensor, out: torch.Tensor | None = None) -> torch.Tensor:
+    """Mark the cells :func:`trilinear_t` reads for ``points (..., 3)`` in ``out`` (bool,
+    ``(nx ny nz,)``, on the points' device; a new one when ``None``) and return it: the rows a
+    lazy optimiser treats as touched (all 8 stencil cells, weight zero or not, as the CPU
+    path's lookups)."""
+    if out is None:
+        out = torch.zeros(int(np.prod(spec.shape)), dtype=torch.bool, device=points.device)
+    with torch.no_grad():
+        base, _ = _stencil(spec, points.detach().reshape(-1, 3))
+        offs = torch.tensor(_offsets(spec), dtype=torch.long, device=points.device)
+        out[(base[:, None] + offs).reshape(-1)] = True
+    return out
 
 
 def _crossing(f_minus, f_plus, k_minus, step, tau):
@@ -122,6 +153,51 @@ def _finish(col, spec, origins, dirs, f_minus, f_plus, k_minus, step, tau, hit,
     p_star = origins + kc[:, None] * dirs
     rgb = trilinear_t(col, spec, p_star) * hit[:, None].to(col.dtype)
     return RayRender(k, rgb, hit)
+
+
+class TorchRender(NamedTuple):
+    """:class:`RayRender` plus the points whose grid cells the gradients reach."""
+
+    depth: torch.Tensor
+    rgb: torch.Tensor
+    hit: torch.Tensor
+    occ_points: torch.Tensor  # (2, R, 3): p- and p+ of every ray (M_occ is read there)
+    col_points: torch.Tensor  # (R, 3): p* of every ray (M_col is read there)
+
+
+def render_rays_torch(occ: torch.Tensor, col: torch.Tensor, spec: GridSpec, tau: float,
+                      origins: torch.Tensor, dirs: torch.Tensor, step: float, n: int,
+                      colour_moves_surface: bool = False, chunk: int = 256) -> TorchRender:
+    """The device path of eq. 1: values and gradients of :func:`render_rays_dense`, all in torch.
+
+    The ``n + 1`` samples of every ray are evaluated without autograd (in slices of ``chunk``
+    samples, so memory stays ``O(R chunk)``) to find the first crossing; only the bracket
+    ``f(p-)``, ``f(p+)`` and ``g(p*)`` enter the autograd graph. Runs wherever the tensors are
+    (CPU or CUDA); the sample positions are computed exactly as in :func:`render_rays_dense`.
+    """
+    R = origins.shape[0]
+    dev = origins.device
+    m = torch.zeros(R, dtype=torch.long, device=dev)  # first sample above tau, 0 = none yet
+    with torch.no_grad():
+        grid = occ.detach()
+        for a in range(0, n + 1, chunk):
+            ks = torch.arange(a, min(n + 1, a + chunk), dtype=origins.dtype, device=dev) * step
+            pts = origins[:, None, :] + ks[None, :, None] * dirs[:, None, :]
+            above = trilinear_t(grid, spec, pts) > tau
+            if a == 0:
+                above[:, 0] = False  # m = 0 (the camera centre) is never p+
+            first = above.float().argmax(dim=1) + a
+            m = torch.where((m == 0) & above.any(dim=1), first, m)
+    any_above = m > 0
+    m1 = torch.clamp(m, min=1)
+    rows_k = torch.stack([m1 - 1, m1]).to(origins.dtype) * step  # (2, R): k- and k+
+    pts = origins[None] + rows_k[..., None] * dirs[None]
+    f = trilinear_t(occ, spec, pts)  # (2, R)
+    hit = any_above & (f[0] <= tau).detach()
+    out = _finish(col, spec, origins, dirs, f[0], f[1], rows_k[0], step, tau, hit,
+                  colour_moves_surface)
+    p_star = origins + out.depth.detach()[:, None] * dirs
+    return TorchRender(*out, pts, p_star)
 
 
 @nb.njit(cache=True)
