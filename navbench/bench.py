@@ -20,7 +20,6 @@ Intel Xeon Gold 6252 cores; everything here runs on the CPU unless stated, so co
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 import platform
@@ -244,51 +243,53 @@ def time_diff_render(level, vmap, rays: int, repeats: int, warmup: int = 2, seed
     (``Delta = 0.1 m``, ``n = 200``). Rays: ``rays // 200`` free-space poses x 200 pixels of
     the paper camera (or one pose x ``rays`` pixels when ``rays < 200``).
 
-    CPU: :func:`~navbench.worldmodel.diffrender.render_rays` (numba crossing search + autograd at
-    the bracket). CUDA: :func:`~navbench.worldmodel.diffrender.render_rays_dense` (every sample on
-    the GPU), under ``torch.device(device)``.
+    ``device`` as :class:`~navbench.worldmodel.fit.FitConfig`'s: ``"cpu"``:
+    :func:`~navbench.worldmodel.diffrender.render_rays` (numba crossing search + autograd at the
+    bracket); ``"cuda[:N]"`` (or ``"torch-cpu"``):
+    :func:`~navbench.worldmodel.diffrender.render_rays_torch` (every sample searched on the
+    device, autograd at the bracket), the renderer of the fit's device path.
     """
     import torch
 
     from navbench.geometry import PAPER_CAMERA
-    from navbench.worldmodel.diffrender import render_rays, render_rays_dense
+    from navbench.worldmodel.diffrender import render_rays, render_rays_torch
 
     per = min(200, rays)
     o_np, d_np = _bench_rays(level, max(1, rays // per), per, seed, PAPER_CAMERA)
-    cuda = device.startswith("cuda")
-    with torch.device(device):
-        occ, col = _fit_tensors(vmap, device)
-        o = torch.from_numpy(o_np).to(device)
-        d = torch.from_numpy(d_np).to(device)
-        fn = render_rays_dense if cuda else render_rays
+    dev = "cpu" if device == "torch-cpu" else device
+    fn = render_rays if device == "cpu" else render_rays_torch
+    occ, col = _fit_tensors(vmap, dev)
+    o = torch.from_numpy(o_np).to(dev)
+    d = torch.from_numpy(d_np).to(dev)
 
-        def call(_k: int) -> float:
-            _torch_sync(device)
-            t0 = time.perf_counter()
-            out = fn(occ, col, vmap.spec, vmap.tau, o, d, RAY_STEP, RAY_SAMPLES)
-            out.depth.sum()  # touch the result
-            _torch_sync(device)
-            return 1000.0 * (time.perf_counter() - t0)
+    def call(_k: int) -> float:
+        _torch_sync(dev)
+        t0 = time.perf_counter()
+        out = fn(occ, col, vmap.spec, vmap.tau, o, d, RAY_STEP, RAY_SAMPLES)
+        out.depth.sum().item()  # touch the result (waits for the device)
+        _torch_sync(dev)
+        return 1000.0 * (time.perf_counter() - t0)
 
-        return timed_loop(call, repeats, warmup, budget_s)
+    return timed_loop(call, repeats, warmup, budget_s)
 
 
 def time_fit_step(level, repeats: int, warmup: int = 1, seed: int = 0, views_count: int = 50,
-                  chunk: int = 10) -> list[float]:
+                  chunk: int = 10, device: str = "cpu") -> list[float]:
     """One step of the map fit, timed inside :func:`navbench.worldmodel.fit.fit_map` itself:
-    a fit with the default :class:`~navbench.worldmodel.fit.FitConfig` (25 x 200 pixel batches,
-    render, eq. 2-3 NLL and the free-space term, backward, Adam) runs ``chunk * (warmup +
-    repeats)`` steps on ``views_count`` seeded half-camera views of ``level``; its progress
-    callback (every ``chunk`` steps) gives one time per ``chunk`` steps, reported per step. The
-    first ``warmup`` chunks (compilation, start-up) are dropped. These are the first steps of a
-    fit from the paper's initialisation."""
+    a fit with the default :class:`~navbench.worldmodel.fit.FitConfig` on ``device`` (25 x 200
+    pixel batches, render, eq. 2-3 NLL and the free-space term, backward, lazy Adam) runs
+    ``chunk * (warmup + repeats)`` steps on ``views_count`` seeded half-camera views of
+    ``level``; its progress callback (every ``chunk`` steps) gives one time per ``chunk``
+    steps, reported per step. The device path reads each step's loss back, so a step has
+    finished on the GPU when it is counted. The first ``warmup`` chunks (compilation, start-up)
+    are dropped. These are the first steps of a fit from the paper's initialisation."""
     from navbench.geometry import HALF_CAMERA
     from navbench.worldmodel.fit import FitConfig, fit_map
     from navbench.worldmodel.views import collect_views
 
     views = collect_views(level, views_count, HALF_CAMERA, seed)
     stamps: list[tuple[int, float]] = []
-    cfg = FitConfig(steps=chunk * (warmup + repeats), seed=seed)
+    cfg = FitConfig(steps=chunk * (warmup + repeats), seed=seed, device=device)
 
     def progress(step: int, _total: int, _loss: float) -> None:
         stamps.append((step, time.perf_counter()))
@@ -302,48 +303,6 @@ def time_fit_step(level, repeats: int, warmup: int = 1, seed: int = 0, views_cou
             out.append(1000.0 * (t - prev_t) / (st - prev_step))
         prev_step, prev_t = st, t
     return out
-
-
-def time_fit_step_dense(level, vmap, repeats: int, warmup: int = 2, seed: int = 0, device: str = "cuda",
-                        views_count: int = 50, budget_s: float | None = None) -> list[float]:
-    """One eq. 3 fit step on ``device`` with the dense reference renderer (every ray sample in
-    torch): a 25 x 200 pixel batch, :func:`~navbench.worldmodel.diffrender.render_rays_dense`,
-    :func:`~navbench.worldmodel.diffrender.laplace_nll`, backward, torch Adam on the map
-    (starting from ``vmap``) and ``sigma2``; without the CPU fit's free-space term. This is
-    the GPU path of the benchmark (the CPU fit uses the numba sparse path instead)."""
-    import torch
-
-    from navbench.geometry import HALF_CAMERA
-    from navbench.worldmodel.diffrender import laplace_nll, render_rays_dense
-    from navbench.worldmodel.fit import BatchSampler, FitConfig
-    from navbench.worldmodel.views import collect_views
-
-    cfg = FitConfig(seed=seed)
-    views = collect_views(level, views_count, HALF_CAMERA, seed)
-    sampler = BatchSampler(views, cfg.images_per_batch, cfg.pixels_per_image, cfg.seed)
-    with torch.device(device):
-        occ, col = _fit_tensors(vmap, device)
-        sigma2 = torch.tensor(float(cfg.sigma2_init), device=device, requires_grad=True)
-        opt = torch.optim.Adam([occ, col], lr=cfg.lr)
-        opt_s = torch.optim.Adam([sigma2], lr=cfg.sigma2_lr)
-
-        def step(_k: int) -> float:
-            _torch_sync(device)
-            t0 = time.perf_counter()
-            o, d, rgb, dep, valid = (t.to(device) for t in sampler.draw())
-            out = render_rays_dense(occ, col, vmap.spec, vmap.tau, o, d, cfg.step, cfg.n_samples)
-            loss = laplace_nll(out.rgb, out.depth, rgb, dep, sigma2, mask=out.hit & valid)
-            opt.zero_grad(set_to_none=False)
-            opt_s.zero_grad()
-            loss.backward()
-            opt.step()
-            opt_s.step()
-            with torch.no_grad():
-                sigma2.clamp_(min=cfg.min_sigma2)
-            _torch_sync(device)
-            return 1000.0 * (time.perf_counter() - t0)
-
-        return timed_loop(step, repeats, warmup, budget_s)
 
 
 # ---------------------------------------------------------------------------------- planning
@@ -641,7 +600,7 @@ def metric_keys() -> list[str]:
     """Every flat key of :func:`run_bench`'s result that holds a measurement."""
     keys = ["sim_frame_ms_half", "sim_frame_ms_paper", "sim_step_ms", "render_ms_half", "render_ms_paper",
             "diffrender_ms_5000", "diffrender_ms_1000", "fit_step_ms", "fit_10k_steps_s",
-            "diffrender_ms_5000_cuda", "fit_step_ms_cuda", "plan_ms"]
+            "diffrender_ms_5000_cuda", "fit_step_ms_cuda", "fit_10k_steps_s_cuda", "plan_ms"]
     keys += [f"track_ms_{t[0]}_{c}" for c in CAMERA_NAMES for t in TRACKERS]
     keys += ["emission_ours_ratio_half", "emission_ours_ratio_paper"]
     keys += [f"control_step_{u}_{c}" for c in CAMERA_NAMES for u in ("ms", "hz")]
@@ -755,42 +714,45 @@ def run_bench(quick: bool = False, repeats: int | None = None, config: BenchConf
               time_diff_render(level, vmap, rays, n, seed=seed, budget_s=budget),
               note="render_rays (numba crossing search + autograd at the bracket), Delta 0.1 m, "
                    "n 200, paper-camera pixels")
-    fit_label = "fit-map step (25x200 px, fwd+bwd+Adam)"
-    if importlib.util.find_spec("navbench.worldmodel.fit") is None:
-        na("fit_step_ms", "world model", fit_label, "navbench.worldmodel.fit not available yet")
-    else:
-        say("fit-map step")
-        from navbench.worldmodel.fit import FitConfig
+    say("fit-map step")
+    from navbench.worldmodel.fit import FitConfig
 
-        fit_chunks = min(n, 3) if cfg.quick else n
-        timed("fit_step_ms", "world model", fit_label, time_fit_step(level, fit_chunks, seed=seed),
-              note=f"fit_map itself (optimizer {getattr(FitConfig(), 'optimizer', 'adam')!r}, "
-                   "default FitConfig): mean step time of each block of 10 steps after a 10-step "
-                   "warm-up, the first steps of a fit from the paper's initialisation")
-    fit_med = metrics["fit_step_ms"].value
-    add(Metric("fit_10k_steps_s", "world model", "fit-map 10 000 steps", "s",
-               None if fit_med is None else fit_med * FIT_STEPS / 1000.0,
-               note="EXTRAPOLATED: 10 000 x the median fit-map step time"))
+    fit_chunks = min(n, 3) if cfg.quick else n
+    fit_note = (f"fit_map itself on the CPU path (optimizer {FitConfig().optimizer!r}, default "
+                "FitConfig): mean step time of each block of 10 steps after a 10-step warm-up, "
+                "the first steps of a fit from the paper's initialisation")
+    timed("fit_step_ms", "world model", "fit-map step (25x200 px, fwd+bwd+Adam)",
+          time_fit_step(level, fit_chunks, seed=seed, device="cpu"), note=fit_note)
+
+    def fit_10k(suffix: str, device: str) -> None:
+        med = metrics["fit_step_ms" + suffix].value
+        add(Metric("fit_10k_steps_s" + suffix, "world model",
+                   "fit-map 10 000 steps" + (" [CUDA]" if suffix else ""), "s",
+                   None if med is None else med * FIT_STEPS / 1000.0, device=device,
+                   note="EXTRAPOLATED: 10 000 x the median fit-map step time"))
+
+    fit_10k("", "cpu")
     use_cuda = torch.cuda.is_available() if cfg.cuda is None else (cfg.cuda and torch.cuda.is_available())
     cuda_rows = (("diffrender_ms_5000_cuda", "diff. render fwd, 5000 rays [CUDA]",
-                  "render_rays_dense (every sample in torch) on cuda:0",
+                  "render_rays_torch (crossing search over every sample on the GPU, autograd at "
+                  "the bracket) on cuda:0, the fit's device path",
                   lambda: time_diff_render(level, vmap, 5000, n, seed=seed, device="cuda", budget_s=budget)),
                  ("fit_step_ms_cuda", "fit-map step, 25x200 px [CUDA]",
-                  "eq. 3 step with render_rays_dense and torch Adam on cuda:0 (no free-space term)",
-                  lambda: time_fit_step_dense(level, vmap, n, seed=seed, device="cuda", budget_s=budget)))
+                  "fit_map itself with device='cuda' (render_rays_torch, free-space term, masked "
+                  "lazy Adam on cuda:0); blocks of 10 steps as the CPU row",
+                  lambda: time_fit_step(level, fit_chunks, seed=seed, device="cuda")))
     for key, label, what, fn in cuda_rows:
-        if key == "fit_step_ms_cuda" and importlib.util.find_spec("navbench.worldmodel.fit") is None:
-            na(key, "world model", label, "navbench.worldmodel.fit not available yet", device="cuda:0")
-        elif not use_cuda:
+        if not use_cuda:
             na(key, "world model", label, "no CUDA device" if cfg.cuda is None or cfg.cuda else "CUDA disabled",
                device="cuda:0")
         else:
             say(label)
             try:
                 timed(key, "world model", label, fn(), device="cuda:0", note=what)
-            except RuntimeError as e:  # the renderer is not device-aware everywhere: report, go on
+            except RuntimeError as e:  # report a failing device path as n/a and go on
                 na(key, "world model", label, f"CUDA run failed: {str(e).splitlines()[0][:160]}",
                    device="cuda:0")
+    fit_10k("_cuda", "cuda:0")
 
     # planning
     say("A* plan")

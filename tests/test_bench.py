@@ -58,7 +58,8 @@ def test_targets():
 
 # ------------------------------------------------------------------------------ result and DB
 
-def fake_result(na: frozenset = frozenset({"fit_step_ms_cuda", "diffrender_ms_5000_cuda"})) -> dict:
+def fake_result(na: frozenset = frozenset({"fit_step_ms_cuda", "diffrender_ms_5000_cuda",
+                                          "fit_10k_steps_s_cuda"})) -> dict:
     """A complete result with made-up values (layout only; no measurement behind it)."""
     from navbench.bench import host_info
 
@@ -136,6 +137,22 @@ def test_quick_bench_json_has_every_key(tmp_path):
         assert out[key], key
     assert out["paper"]["control_step_hz"] == 16.1
     assert "voxelized" in out["map"]
+
+
+def test_device_rows_run_their_code_on_the_cpu():
+    """The CUDA rows time the fit's device path (render_rays_torch, fit_map(device=...)); run
+    that very code on the CPU (``torch-cpu``) so it is exercised on machines without a GPU."""
+    from navbench.bench import time_diff_render, time_fit_step
+    from navbench.level import resolve_level
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+
+    level = resolve_level("house-1")
+    vmap = voxelize_level(level, grid_for_level(level, shape=(60, 60, 12)))
+    for device in ("cpu", "torch-cpu"):
+        times = time_diff_render(level, vmap, 400, repeats=2, warmup=1, device=device)
+        assert len(times) == 2 and all(t > 0 for t in times)
+    times = time_fit_step(level, repeats=2, warmup=1, views_count=4, device="torch-cpu")  # 3 x 10 steps
+    assert len(times) == 2 and all(t > 0 for t in times)
 
 
 def test_unknown_level_is_a_user_error(tmp_path):
