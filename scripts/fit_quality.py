@@ -2,12 +2,14 @@
 
 Usage: .venv/bin/python scripts/fit_quality.py LEVEL [--views 5000] [--heldout 200]
        [--camera half] [--steps 10000] [--variants aux,pure] [--cache DIR] [--out FILE.json]
-       [--save-maps DIR]
+       [--save-maps DIR] [--device cpu|auto|cuda|torch-cpu]
 
 Collects (or reuses from --cache) the training views (seed 1) and held-out views (seed 2, never
 used for fitting), fits each variant with FitConfig defaults except the named changes, and
 prints one JSON line per variant: depth MAE (m), RGB L1, coverage, slice precision/recall,
-fit time (wall and CPU seconds).
+fit time (wall and CPU seconds). ``--device`` sets FitConfig.device for every variant (``cpu``:
+the sparse numba path; ``cuda``: the device path on the GPU; ``torch-cpu``: the device path's
+arithmetic on the CPU, slow); the variant ``torch`` is the defaults on ``torch-cpu``.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ VARIANTS = {
     "aux1": {"free_space_samples": 1},
     "adam": {"optimizer": "adam"},
     "pure-adam": {"free_space_weight": 0.0, "optimizer": "adam"},
+    "torch": {"device": "torch-cpu"},  # the GPU path's code and semantics, run on the CPU
 }
 
 
@@ -45,6 +48,7 @@ def main() -> None:
     ap.add_argument("--cache", default=None)
     ap.add_argument("--out", default=None)
     ap.add_argument("--save-maps", default=None, help="directory to save each variant's map.npz")
+    ap.add_argument("--device", default=None, help="FitConfig.device for every variant")
     args = ap.parse_args()
     level = resolve_level(args.level)
     intr = camera_by_name(args.camera)
@@ -63,14 +67,17 @@ def main() -> None:
     held = views(args.heldout, 2, "heldout")
     results = []
     for name in args.variants.split(","):
-        cfg = FitConfig(steps=args.steps, **VARIANTS[name])
+        kw = dict(VARIANTS[name])
+        if args.device:
+            kw["device"] = args.device
+        cfg = FitConfig(steps=args.steps, **kw)
         c0, w0 = time.process_time(), time.perf_counter()
         vmap, m = fit_map(train, cfg, heldout=held, level=level)
         if args.save_maps:
             from navbench.worldmodel.grid import save_map
 
             save_map(vmap, Path(args.save_maps) / f"{level.name}-{name}.npz")
-        m.update(variant=name, level=level.name, views=args.views, camera=args.camera,
+        m.update(variant=name, device=m.get("device", "cpu"), level=level.name, views=args.views, camera=args.camera,
                  wall_s=time.perf_counter() - w0, cpu_s=time.process_time() - c0)
         m.pop("loss_curve", None)
         print(json.dumps(m), flush=True)

@@ -131,6 +131,19 @@ def test_collect_views_and_fit_map_commands(project, monkeypatch):
     for k in ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "fit_seconds", "steps"):
         assert k in doc, k
     assert doc["steps"] == 2 and doc["cached"] is False
+    assert doc["device"] == "cpu"  # auto, on this machine (no CUDA visible)
+
+    # --device picks the path and is part of the map's key: the GPU path's code on the CPU
+    res = CliRunner().invoke(__import__("navbench.cli.main", fromlist=["app"]).app,
+                             ["fit-map", "tiny", "--views", key, "--steps", "2", "--json",
+                              "--profile", "tiny.toml", "--device", "torch-cpu"])
+    assert res.exit_code == 0, res.output
+    dev_doc = json.loads(res.stdout[res.stdout.index("{"):])
+    assert dev_doc["device"] == "torch-cpu" and dev_doc["cached"] is False
+    assert dev_doc["map_key"] != doc["map_key"]
+    res = CliRunner().invoke(__import__("navbench.cli.main", fromlist=["app"]).app,
+                             ["fit-map", "tiny", "--views", key, "--device", "tpu", "--profile", "tiny.toml"])
+    assert res.exit_code != 0 and "unknown device" in str(res.exception)
 
     with monkeypatch.context() as m:
         forbid(m, "navbench.worldmodel.fit.fit_map")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import typer
 
 from navbench.cli._common import console, print_json
@@ -19,6 +21,9 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(None, "--seed", min=0, help="Batch sampling seed [default: the profile's]."),
         camera: str = typer.Option(None, "--camera", help="half or paper [default: the profile's]."),
         profile: str = typer.Option(None, "--profile", help="Profile for defaults (quick, paper or a .toml)."),
+        device: str = typer.Option(None, "--device", help="Where the fit runs: auto (CUDA when torch sees "
+                                   "a GPU, else cpu), cpu (numba path), cuda[:N], or torch-cpu (the GPU "
+                                   "path's code on the CPU, slow) [default: the profile's, else auto]."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object with the quality metrics."),
         force: bool = typer.Option(False, "--force", help="Refit even when cached."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
@@ -34,6 +39,8 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.stages import LevelConfig, MAP_METRIC_KEYS, fit_map_for_profile, make_level_stage
 
         prof = load_profile_with(profile, fit_steps=steps, fit_seed=seed, camera=camera)
+        if device is not None:
+            prof = dataclasses.replace(prof, fit={**prof.fit, "device": device})
         with database(db) as rdb, PipelineUI(json_mode=json_out) as ui:
             ctx = make_context(ui, rdb, force={"fit-map"} if force else set())
             lv = make_level_stage(ctx, LevelConfig(level, prof.level_seed))
@@ -41,7 +48,8 @@ def register(app: typer.Typer) -> None:
         m = ref.meta
         out = {k: m.get(k) for k in MAP_METRIC_KEYS}
         out.update(level=level, map_key=ref.key, cached=ref.cached, path=str(ref.path),
-                   coverage=m.get("coverage"), heldout_views=m.get("heldout_views"))
+                   coverage=m.get("coverage"), heldout_views=m.get("heldout_views"),
+                   device=m.get("device", "cpu"))
         if json_out:
             print_json(out)
             return
@@ -51,7 +59,7 @@ def register(app: typer.Typer) -> None:
         t.add_column("metric")
         t.add_column("value", justify="right")
         units = {"depth_mae_m": "m", "fit_seconds": "s", "rgb_l1": "(0-1)"}
-        for k in (*MAP_METRIC_KEYS, "coverage", "heldout_views"):
+        for k in (*MAP_METRIC_KEYS, "coverage", "heldout_views", "device"):
             v = out.get(k)
             t.add_row(f"{k} {units.get(k, '')}".strip(), "-" if v is None else
                       (f"{v:.4f}" if isinstance(v, float) else str(v)))
