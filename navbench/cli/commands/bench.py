@@ -84,6 +84,9 @@ def bench(
                                   help="Tasks of the end-to-end run, 0 skips it (default: 2 with --quick, else 6)."),
     cache: str = typer.Option("results/cache", "--cache", help="Stage cache to take a fitted map from."),
     store: bool = typer.Option(True, "--store/--no-store", help="Store the results in the results database."),
+    cuda: bool = typer.Option(None, "--cuda/--no-cuda",
+                              help="Also time the GPU path (differentiable render, fit step) on "
+                                   "cuda:0 (default: when torch sees a GPU)."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                            help="Results database URL (default: sqlite:///results/navbench.db)."),
 ):
@@ -102,7 +105,7 @@ def bench(
 
     resolve_level(level)  # a bad level name fails here, before a run is recorded
     cfg = BenchConfig(level=level, quick=quick, repeats=repeats, seed=seed, workers=workers,
-                      e2e_tasks=e2e_tasks, cache_root=cache)
+                      e2e_tasks=e2e_tasks, cache_root=cache, cuda=cuda)
     rdb, run_id = None, None
     if store:
         from navbench.pipeline.db import ResultsDB
