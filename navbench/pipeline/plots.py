@@ -167,7 +167,7 @@ def plot_step_runtime(ax, runtime: "pandas.DataFrame") -> None:
     ax.set_xlabel("median time per step (ms)")
     ax.set_title("Per-step runtime by component")
     ax.grid(axis="x", alpha=0.3)
-    if labels:
+    if ax.get_legend_handles_labels()[0]:  # no bar when every component time is 0 or missing
         ax.legend(fontsize=8, loc="lower right")
 
 
