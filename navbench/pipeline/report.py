@@ -212,7 +212,11 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
     t.insert(t.columns.get_loc("finished") + 1, "seconds", secs.round(1))
     for c in ("started", "finished"):
         t[c] = t[c].dt.strftime("%Y-%m-%d %H:%M:%S")
-    page.table(t, "runs", "Runs (times in UTC; config hash and commit abbreviated)")
+    caption = "Runs (times in UTC; config hash and commit abbreviated)"
+    if (runs["status"] == "running").any():
+        caption += ("; status running: the run had not finished when this page was written (a "
+                    "`navbench all` run writes its report before it finishes)")
+    page.table(t, "runs", caption)
     for _, r in runs.tail(5).iterrows():
         page.sections.append(
             f"<details><summary>Resolved config of run {int(r['id'])} ({html.escape(str(r['command']))}, "

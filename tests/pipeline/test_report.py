@@ -181,6 +181,15 @@ def test_report_without_optional_parts(synthetic, monkeypatch):
     assert "No trajectory loader given" in text
 
 
+def test_a_running_run_is_explained(synthetic):
+    db, _, tmp = synthetic
+    assert "had not finished" not in build_report(db, tmp / "r3", levels_dir=tmp / "levels",
+                                                  n_boot=20).read_text()
+    db.start_run("quick", "all", {}, "d" * 64)  # the run writing the report, as in `navbench all`
+    text = build_report(db, tmp / "r4", levels_dir=tmp / "levels", n_boot=20).read_text()
+    assert "had not finished when this page was written" in text
+
+
 def test_report_on_empty_database(tmp_path):
     with ResultsDB(f"sqlite:///{tmp_path / 'e.db'}") as db:
         index = build_report(db, tmp_path / "out", levels_dir=tmp_path / "nolevels")
