@@ -301,16 +301,13 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
         log = _FitLog(config.steps, progress)
         t0 = time.perf_counter()
         for it in range(config.steps):
-            o, d, rgb, dep, valid = sampler.draw()
+            o, d, rgb, dep, valid, free, solid = _draw(sampler, rng, config)
             out = render_rays_sparse(occ, col, spec, config.tau, o.numpy(), d.numpy(), step, n)
             mask = out.hit & valid
             loss = laplace_nll(out.rgb, out.depth, rgb, dep, sigma2, mask=mask)
             total = loss
             occ_lookups = [out.occ_lookup]
-            if config.free_space_weight > 0:
-                free, solid = free_space_points(o.numpy(), d.numpy(), dep.numpy(), valid.numpy(),
-                                                rng, config.free_space_samples,
-                                                config.free_space_margin)
+            if free is not None:
                 fs = Lookup(occ, spec, np.concatenate([free, solid]))
                 nf = len(free)
                 total = total + config.free_space_weight * free_space_hinge(
@@ -338,6 +335,17 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
         torch.set_num_threads(old_threads)
     return _finish_fit(views, config, spec, occ, col, float(sigma2.detach()), elapsed, log,
                        heldout, level, {"device": "cpu"})
+
+
+def _draw(sampler: BatchSampler, rng, config: FitConfig):
+    """One step's data, the same for both paths: the batch (:meth:`BatchSampler.draw`) and the
+    free-space term's ``free, solid`` points (``None, None`` when ``free_space_weight`` is 0)."""
+    o, d, rgb, dep, valid = sampler.draw()
+    free = solid = None
+    if config.free_space_weight > 0:
+        free, solid = free_space_points(o.numpy(), d.numpy(), dep.numpy(), valid.numpy(), rng,
+                                        config.free_space_samples, config.free_space_margin)
+    return o, d, rgb, dep, valid, free, solid
 
 
 class _FitLog:
@@ -487,7 +495,7 @@ def _fit_map_torch(views: Views, config: FitConfig, device: str, progress, heldo
     try:
         t0 = time.perf_counter()
         for it in range(config.steps):
-            o, d, rgb, dep, valid = sampler.draw()
+            o, d, rgb, dep, valid, free, solid = _draw(sampler, rng, config)
             o_d, d_d = o.to(dev), d.to(dev)
             rgb_d, dep_d, valid_d = rgb.to(dev), dep.to(dev), valid.to(dev)
             out = render_rays_torch(occ, col, spec, config.tau, o_d, d_d, step, n)
@@ -495,9 +503,7 @@ def _fit_map_torch(views: Views, config: FitConfig, device: str, progress, heldo
             loss = laplace_nll(out.rgb, out.depth, rgb_d, dep_d, sigma2, mask=mask)
             total = loss
             occ_points = [out.occ_points]
-            if config.free_space_weight > 0:
-                free, solid = free_space_points(o.numpy(), d.numpy(), dep.numpy(), valid.numpy(),
-                                                rng, config.free_space_samples, config.free_space_margin)
+            if free is not None:
                 pts = torch.from_numpy(np.concatenate([free, solid]).astype(np.float32)).to(dev)
                 f = trilinear_t(occ, spec, pts)
                 total = total + config.free_space_weight * free_space_hinge(
