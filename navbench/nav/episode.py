@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from navbench.errors import ConfigError
 from navbench.geometry import AGENT_LENGTH
 from navbench.nav.controller import ControllerConfig, controller_step
 from navbench.plan.astar import PlannerConfig, PlannerMap, cached_planner_map, plan_on_map
@@ -50,6 +51,11 @@ class EpisodeConfig:
     # (0.5 L), since the last waypoint may be the A* lattice point within 0.8 L of the target
     goal_tolerance: float = 1.3 * AGENT_LENGTH
     max_replans: int = 10  # replans allowed before the episode ends as "no-plan"
+    # the simulator also clips the movement direction to within 5 deg of the TRUE heading (a
+    # body-fixed drive, navbench's behaviour before 2026-11-22); False: the paper's equation, the
+    # agent moves along the direction it commands, which it keeps within 5 deg of its ESTIMATED
+    # heading (see navbench.sim.world.Simulator)
+    body_fixed_drive: bool = False
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
 
@@ -99,6 +105,10 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
     """
     from navbench.sim.dynamics import clip_control
 
+    drive = getattr(simulator, "enforce_direction_limit", None)
+    if drive is not None and bool(drive) != config.body_fixed_drive:
+        raise ConfigError(f"the simulator's enforce_direction_limit={bool(drive)} disagrees with "
+                          f"EpisodeConfig.body_fixed_drive={config.body_fixed_drive}")
     pm = planner_map if planner_map is not None else cached_planner_map(occ2d, xs, ys, config.planner)
     start = np.asarray(task.start, dtype=np.float64).reshape(3)
     target = np.asarray(task.target, dtype=np.float64).reshape(2)

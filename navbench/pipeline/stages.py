@@ -607,7 +607,7 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
         ep_cfg = build_episode_config(c.episode)
         frames = c.estimator not in FRAMELESS_ESTIMATORS
         sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
-                        camera_height=CAMERA_HEIGHT)
+                        camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive)
         est = make_estimator(c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT,
                              renderer=None, seed=job.estimator_seed, **c.options)
         record = run_episode(level, occ2d, xs, ys, tasks[job.task_id], est, sim, config=ep_cfg)

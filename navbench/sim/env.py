@@ -13,7 +13,8 @@ Observation (``Dict``):
 With ``intrinsics=None`` the observation holds only ``goal``.
 
 Action: ``(3,)`` float32 ``(turn [rad], direction offset from the heading [rad], speed [m])``,
-within the paper's limits (values outside are clipped by the simulator).
+within the paper's limits (values outside are clipped; the direction offset is taken from the
+true heading, so the environment moves the agent along ``heading + offset``).
 
 Reward: the decrease of the Euclidean distance to the goal during the step (m). An episode
 terminates on success (true position within ``2 L`` of the goal) or on a collision (movement
@@ -168,7 +169,8 @@ class PointNavEnv(gym.Env):
         if a.shape != (3,):
             raise TaskError(f"an action is (turn, direction offset, speed), got shape {a.shape}")
         heading = float(self.sim.pose[2])
-        res = self.sim.step(Control(float(a[0]), heading + float(a[1]), float(a[2])))
+        off = min(max(float(a[1]), -MAX_DIRECTION_OFFSET), MAX_DIRECTION_OFFSET)
+        res = self.sim.step(Control(float(a[0]), heading + off, float(a[2])))
         self._frame = res.frame
         self._steps += 1
         before = self._distance

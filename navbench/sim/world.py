@@ -27,7 +27,7 @@ import numpy as np
 from navbench.errors import TaskError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, wrap_angle
 from navbench.level import Level, distance_to_solids, prisms
-from navbench.sim.dynamics import Control, apply_dynamics, clip_control, draw_noise, resolve_noise
+from navbench.sim.dynamics import Control, apply_dynamics, as_control, clip_control, draw_noise, resolve_noise
 
 #: Distance (m) a blocked move is backed off from the exact contact point.
 CONTACT_EPS = 1e-6
@@ -114,13 +114,24 @@ class Simulator:
     ``noise`` is a level name (:data:`navbench.sim.dynamics.NOISE_LEVELS`) or a
     ``(sigma_alpha [rad], sigma_s [m])`` pair; ``seed`` fully determines the noise draws (two
     normals per step, whatever the controls). ``intrinsics=None`` skips rendering: ``step``
-    then returns ``frame=None`` (fast stepping). Controls are clipped to the limits against the
-    current heading before they are applied; the applied control is kept in ``last_control``.
+    then returns ``frame=None`` (fast stepping). Controls are clipped to the turn and speed
+    limits before they are applied; the applied control is kept in ``last_control``.
+
+    The movement direction ``o`` is an absolute world angle and, as in the paper's equations
+    (section 5), the location update depends on ``o`` alone, never on the true heading: the
+    agent keeps ``|o - alpha| <= 5 deg`` against the heading it BELIEVES it has
+    (:func:`navbench.nav.episode.run_episode` clips against the estimate), so a heading error
+    turns into a position error only through what the estimator feeds back to the controller.
+    ``enforce_direction_limit=True`` also clips ``o`` to within 5 deg of the TRUE heading
+    (a body-fixed drive: a heading error of ``d`` then bends every step by ``|d| - 5 deg``);
+    this was the default before and halves the ``dynamics`` baseline's SPL.
     """
 
     def __init__(self, level: Level, noise="none", seed: int = 0,
-                 intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT):
+                 intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
+                 enforce_direction_limit: bool = False):
         self.level = level
+        self.enforce_direction_limit = bool(enforce_direction_limit)
         self.noise = noise if isinstance(noise, str) else tuple(float(v) for v in noise)
         self.sigmas = resolve_noise(noise)
         self.seed = seed
@@ -163,6 +174,8 @@ class Simulator:
     def step(self, control) -> StepResult:
         """Apply one control ``(turn, direction, speed)`` (clipped) with noise and collisions."""
         u = clip_control(control, float(self.pose[2]))
+        if not self.enforce_direction_limit:  # o as commanded (paper eq. for l_{t+1}); see the class doc
+            u = Control(u.turn, float(wrap_angle(as_control(control).direction)), u.speed)
         eps = draw_noise(self.rng, self.sigmas)
         self.last_control = u
         if not self.collided:

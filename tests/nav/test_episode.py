@@ -107,3 +107,44 @@ def test_same_seed_same_episode():
     b = _episode(level, task, estimator="dynamics", noise="mid", seed=11)
     np.testing.assert_array_equal(a.true_poses, b.true_poses)
     np.testing.assert_array_equal(a.controls, b.controls)
+
+
+def test_the_simulator_drive_must_match_the_episode_config():
+    """EpisodeConfig.body_fixed_drive is part of the cell key, so a simulator built otherwise is
+    refused rather than silently giving episodes of the other kind."""
+    from navbench.errors import ConfigError
+
+    level = open_room()
+    task = Task(0, (1.0, 1.0, 0.0), (3.0, 1.0), 2.0)
+    o, xs, ys = occupancy_raster(level, CELL)
+    body_fixed = Simulator(level, noise="mid", seed=1, intrinsics=None, enforce_direction_limit=True)
+    with pytest.raises(ConfigError, match="body_fixed_drive"):
+        run_episode(level, o, xs, ys, task, make_estimator("gt"), body_fixed, EpisodeConfig())
+    rec = run_episode(level, o, xs, ys, task, make_estimator("gt"), body_fixed,
+                      EpisodeConfig(body_fixed_drive=True))
+    assert rec.end_reason == "reached"
+
+
+def test_dynamics_agent_moves_along_its_commanded_direction():
+    """The paper's location equation: each step moves along the commanded o (kept within 5 deg
+    of the ESTIMATED heading) plus that step's noise, whatever the true heading has drifted to
+    in the noisy in-place turns; a body-fixed drive instead bends every step towards the true
+    heading, and path integration misses the drift (seeded: deterministic)."""
+    level = open_room()
+    task = Task(0, (0.5, 2.0, math.pi / 2), (4.5, 2.0), 4.0)  # a 90 deg turn, then 4 m straight
+    o, xs, ys = occupancy_raster(level, CELL)
+    off, miss = {}, {}
+    for body_fixed in (False, True):
+        sim = Simulator(level, noise=(math.radians(9.0), 0.0), seed=0, intrinsics=None,
+                        enforce_direction_limit=body_fixed)
+        rec = run_episode(level, o, xs, ys, task, make_estimator("dynamics"), sim,
+                          EpisodeConfig(body_fixed_drive=body_fixed))
+        moves = np.diff(rec.true_poses[:, :2], axis=0)
+        moving = rec.controls[:, 2] > 0
+        dirs = np.arctan2(moves[moving, 1], moves[moving, 0])
+        off[body_fixed] = np.abs(np.angle(np.exp(1j * (dirs - rec.controls[moving, 1]))))
+        miss[body_fixed] = float(np.hypot(*(rec.true_poses[-1, :2] - task.target)))
+    # commanded: a step's offset is that step's noise (sigma 9 deg), never a drift
+    assert np.median(off[False]) < math.radians(9.0) and miss[False] < 0.2
+    # body-fixed: the turns' heading error bends the straight walk; the agent ends far off
+    assert np.median(off[True]) > math.radians(9.0) and miss[True] > 0.5

@@ -122,7 +122,7 @@ def test_same_seed_same_trajectory_and_aligned_stream():
 
 
 def test_controls_are_clipped():
-    sim = Simulator(rooms(), "none", intrinsics=None)
+    sim = Simulator(rooms(), "none", intrinsics=None, enforce_direction_limit=True)
     sim.reset((1.0, 3.0, 0.0))
     res = sim.step(Control(1.0, 1.0, 5.0))
     th = MAX_TURN
@@ -130,6 +130,20 @@ def test_controls_are_clipped():
     np.testing.assert_allclose(res.pose, [1.0 + MAX_STEP * math.cos(off), 3.0 + MAX_STEP * math.sin(off), th],
                                atol=1e-12)
     assert sim.last_control.speed == MAX_STEP
+
+
+def test_direction_is_the_commanded_world_angle_by_default():
+    # paper section 5: l_{t+1} = l_t + [cos(eps + o), sin(eps + o)] max(0, s + eps_s) depends on o
+    # alone; the 5 deg limit is the agent's to keep against its own (estimated) heading
+    sim = Simulator(rooms(), "none", intrinsics=None)
+    sim.reset((1.0, 3.0, 0.0))
+    o = math.radians(12.0)  # the agent believes its heading is 12 deg; the true heading is 0
+    res = sim.step(Control(0.0, o, 5.0))
+    np.testing.assert_allclose(res.pose, [1.0 + MAX_STEP * math.cos(o), 3.0 + MAX_STEP * math.sin(o), 0.0],
+                               atol=1e-12)
+    assert sim.last_control.speed == MAX_STEP and sim.last_control.turn == 0.0
+    turned = sim.step(Control(1.0, 0.0, 0.0))
+    assert turned.pose[2] == pytest.approx(MAX_TURN, abs=1e-12)
 
 
 def test_simulator_frames_and_errors():
