@@ -174,6 +174,10 @@ class BatchSampler:
         # plain ndarray views of (possibly memory-mapped) arrays: no copy, no memmap overhead
         self.rgb, self.depth, self.valid = (np.asarray(a) for a in (views.rgb, views.depth, views.valid))
         self.poses = np.asarray(views.poses)
+        # flat per-pixel views for single-index gathers (no copy for C-contiguous arrays)
+        self.HW = views.intrinsics.height * views.intrinsics.width
+        self.rgb_flat = self.rgb.reshape(-1, 3)
+        self.depth_flat, self.valid_flat = self.depth.reshape(-1), self.valid.reshape(-1)
 
     def draw(self):
         import torch
@@ -181,16 +185,18 @@ class BatchSampler:
         v = self.views
         img = self.rng.integers(0, len(v), size=self.images)
         pix = self.rng.integers(0, len(self.cam_rays), size=(self.images, self.pixels))
-        jj, ii = np.divmod(pix, self.W)
         ib = np.repeat(img, self.pixels)
-        jj, ii, pix = jj.ravel(), ii.ravel(), pix.ravel()
-        order = np.lexsort((ii, jj, ib))  # sorted reads from memory-mapped arrays
-        ib, jj, ii, pix = ib[order], jj[order], ii[order], pix[order]
-        dirs = np.einsum("bij,bj->bi", self.R[ib], self.cam_rays[pix])
+        flat = ib * self.HW + pix.ravel()  # image-major pixel index: sorting it sorts (image, row, column)
+        order = np.argsort(flat, kind="stable")  # sorted reads from memory-mapped arrays
+        ib, flat = ib[order], flat[order]
+        pix = flat - ib * self.HW
+        R, c = self.R[ib], self.cam_rays[pix]
+        dirs = np.stack([R[:, k, 0] * c[:, 0] + R[:, k, 1] * c[:, 1] + R[:, k, 2] * c[:, 2]
+                         for k in range(3)], axis=1)
         origins = np.column_stack([self.poses[ib, 0], self.poses[ib, 1], np.full(len(ib), v.camera_height)])
-        rgb = self.rgb[ib, jj, ii].astype(np.float32) / 255.0
-        depth = self.depth[ib, jj, ii].astype(np.float32)
-        valid = self.valid[ib, jj, ii] & np.isfinite(depth)
+        rgb = self.rgb_flat[flat].astype(np.float32) / 255.0
+        depth = self.depth_flat[flat].astype(np.float32)
+        valid = self.valid_flat[flat] & np.isfinite(depth)
         depth = np.where(valid, depth, 0.0).astype(np.float32)
         t = lambda a: torch.from_numpy(np.ascontiguousarray(a, np.float32))  # noqa: E731
         return t(origins), t(dirs), t(rgb), t(depth), torch.from_numpy(valid)

@@ -152,6 +152,37 @@ def test_device_path_touches_the_cells_of_the_cpu_path_with_its_gradients(room, 
         np.testing.assert_allclose(grad.numpy().reshape(acc.g.shape), acc.g, rtol=1e-3, atol=1e-4)
 
 
+def _reference_draw(sampler):
+    """BatchSampler.draw written plainly: (image, row, column) indexing, a lexsort, einsum."""
+    rng, v = sampler.rng, sampler.views
+    img = rng.integers(0, len(v), size=sampler.images)
+    pix = rng.integers(0, len(sampler.cam_rays), size=(sampler.images, sampler.pixels))
+    jj, ii = np.divmod(pix, v.intrinsics.width)
+    ib = np.repeat(img, sampler.pixels)
+    jj, ii, pix = jj.ravel(), ii.ravel(), pix.ravel()
+    order = np.lexsort((ii, jj, ib))
+    ib, jj, ii, pix = ib[order], jj[order], ii[order], pix[order]
+    dirs = np.einsum("bij,bj->bi", sampler.R[ib], sampler.cam_rays[pix])
+    origins = np.column_stack([v.poses[ib, 0], v.poses[ib, 1], np.full(len(ib), v.camera_height)])
+    depth = np.asarray(v.depth)[ib, jj, ii].astype(np.float32)
+    valid = np.asarray(v.valid)[ib, jj, ii] & np.isfinite(depth)
+    return (origins, dirs, np.asarray(v.rgb)[ib, jj, ii] / 255.0,
+            np.where(valid, depth, 0.0), valid)
+
+
+def test_batch_sampler_equals_its_plain_reference(data):
+    from navbench.worldmodel.fit import BatchSampler
+
+    train, _ = data
+    fast, ref = BatchSampler(train, 7, 50, 11), BatchSampler(train, 7, 50, 11)
+    for _ in range(20):
+        got = fast.draw()
+        want = _reference_draw(ref)
+        for g, w in zip(got, want):
+            assert g.dtype in (torch.float32, torch.bool) and g.shape[0] == 350
+            np.testing.assert_array_equal(g.numpy(), np.asarray(w, g.numpy().dtype))
+
+
 def test_box_init_and_config_checks(data):
     train, _ = data
     spec, occ, col = initial_grids(train, FitConfig(grid_shape=(40, 40, 20)))
