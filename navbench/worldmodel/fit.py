@@ -170,7 +170,6 @@ class BatchSampler:
         self.cam_rays = pixel_rays(views.intrinsics).reshape(-1, 3)
         th = np.asarray(views.poses[:, 2])
         self.R = np.stack([camera_rotation(t) for t in th]) if len(th) else np.zeros((0, 3, 3))
-        self.W = views.intrinsics.width
         # plain ndarray views of (possibly memory-mapped) arrays: no copy, no memmap overhead
         self.rgb, self.depth, self.valid = (np.asarray(a) for a in (views.rgb, views.depth, views.valid))
         self.poses = np.asarray(views.poses)
