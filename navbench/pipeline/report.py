@@ -409,7 +409,26 @@ def _section_bench(page: _Page, bench: "pandas.DataFrame") -> None:
     t = bench[["recorded", "run_id", "metric", "value", "unit", "device", "host", "cpu",
                "navbench_version"]].copy()
     t["recorded"] = t["recorded"].dt.strftime("%Y-%m-%d %H:%M:%S")
-    page.table(t, "bench", "Benchmark rows, oldest first")
+    page.table(_bench_history(t), "bench_history",
+               f"The last {BENCH_HISTORY_RUNS} benchmark runs side by side: one column per run "
+               "(its id, start time and host), one row per measurement and device", index=True)
+    page.table(t, "bench", "Every benchmark row, oldest first")
+
+
+#: Benchmark runs shown side by side in the report's history table.
+BENCH_HISTORY_RUNS = 8
+
+
+def _bench_history(rows: "pandas.DataFrame") -> "pandas.DataFrame":
+    """``rows`` (bench rows with a formatted ``recorded``) pivoted: index (metric, unit, device),
+    one column per run of the last :data:`BENCH_HISTORY_RUNS`, oldest first."""
+    runs = rows.groupby("run_id", sort=True).agg(recorded=("recorded", "min"), host=("host", "first"))
+    runs = runs.tail(BENCH_HISTORY_RUNS)
+    label = {rid: f"run {rid}, {r.recorded[:16]}, {r.host}" for rid, r in runs.iterrows()}
+    kept = rows[rows["run_id"].isin(runs.index)]
+    wide = kept.pivot_table(index=["metric", "unit", "device"], columns="run_id", values="value",
+                            aggfunc="first", sort=False)
+    return wide[list(runs.index)].rename(columns=label)
 
 
 def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: TrajectoryLoader | None = None,

@@ -167,6 +167,10 @@ def test_report_embeds_every_figure_and_writes_csvs(synthetic, fake_isometric):
     runtime = pd.read_csv(out / "runtime.csv", index_col=0)
     assert runtime.loc["ours", "estimate"] == 20.0 and runtime.loc["ours", "step_ms"] == 27.0
     assert pd.read_csv(out / "bench.csv")["metric"].tolist() == ["render_ms", "ours_step_ms"]
+    history = pd.read_csv(out / "bench_history.csv", index_col=[0, 1, 2])
+    assert history.index.tolist() == [("render_ms", "ms", "cpu"), ("ours_step_ms", "ms", "cpu")]
+    assert history.shape[1] == 1 and history.columns[0].startswith("run ")
+    assert history.iloc[:, 0].tolist() == [4.2, 31.0]
     assert pd.read_csv(out / "maps.csv")["depth_mae_m"].tolist() == [0.03]
 
 
@@ -188,6 +192,32 @@ def test_a_running_run_is_explained(synthetic):
     db.start_run("quick", "all", {}, "d" * 64)  # the run writing the report, as in `navbench all`
     text = build_report(db, tmp / "r4", levels_dir=tmp / "levels", n_boot=20).read_text()
     assert "had not finished when this page was written" in text
+
+
+def test_bench_history_puts_runs_side_by_side(tmp_path):
+    """Three bench runs, two devices, a metric missing from one run: one column per run, oldest
+    first, the last BENCH_HISTORY_RUNS only."""
+    from navbench.pipeline import report as rep
+
+    with ResultsDB(f"sqlite:///{tmp_path / 'h.db'}") as db:
+        for k in range(3):
+            rid = db.start_run("bench", "bench", {}, "h")
+            rows = [dict(metric="fit_step_ms", value=10.0 + k, unit="ms"),
+                    dict(metric="fit_step_ms", value=1.0 + k, unit="ms", device="cuda:0")]
+            if k != 1:
+                rows.append(dict(metric="plan_ms", value=2.0, unit="ms"))
+            db.add_bench_rows(rid, rows)
+            db.finish_run(rid)
+        rep.BENCH_HISTORY_RUNS, old = 2, rep.BENCH_HISTORY_RUNS
+        try:
+            build_report(db, tmp_path / "out", levels_dir=tmp_path / "nolevels")
+        finally:
+            rep.BENCH_HISTORY_RUNS = old
+    h = pd.read_csv(tmp_path / "out" / "bench_history.csv", index_col=[0, 1, 2])
+    assert [c.split(",")[0] for c in h.columns] == ["run 2", "run 3"]
+    assert h.loc[("fit_step_ms", "ms", "cpu")].tolist() == [11.0, 12.0]
+    assert h.loc[("fit_step_ms", "ms", "cuda:0")].tolist() == [2.0, 3.0]
+    assert np.isnan(h.loc[("plan_ms", "ms", "cpu")].iloc[0]) and h.loc[("plan_ms", "ms", "cpu")].iloc[1] == 2.0
 
 
 def test_report_on_empty_database(tmp_path):
