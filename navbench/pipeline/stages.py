@@ -377,6 +377,13 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
 
 def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:
     """collect-views (train and held-out) -> fit-map for one level with ``profile``'s settings."""
+    cfg = FitMapConfig(profile.fit_steps, profile.fit_seed, dict(profile.fit), profile.eval_views,
+                       profile.eval_seed)
+    fit_cfg = cfg.fit_config()  # a bad fit option fails here, before any views are collected
+    if fit_cfg.device.startswith("cuda"):  # an explicit GPU request (imports torch only then)
+        from navbench.worldmodel.fit import resolve_fit_device
+
+        resolve_fit_device(fit_cfg.device)
     camera = profile.camera
     if views_key:
         stage, key = ctx.store.find(views_key, "collect-views")
@@ -390,8 +397,7 @@ def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str |
     else:
         views = collect_views_stage(ctx, level, ViewsConfig(profile.views, camera, profile.views_seed))
     held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed))
-    return fit_map_stage(ctx, level, views, held, FitMapConfig(
-        profile.fit_steps, profile.fit_seed, dict(profile.fit), profile.eval_views, profile.eval_seed))
+    return fit_map_stage(ctx, level, views, held, cfg)
 
 
 # ------------------------------------------------------------------------- run-navigation

@@ -144,6 +144,12 @@ def test_collect_views_and_fit_map_commands(project, monkeypatch):
     res = CliRunner().invoke(__import__("navbench.cli.main", fromlist=["app"]).app,
                              ["fit-map", "tiny", "--views", key, "--device", "tpu", "--profile", "tiny.toml"])
     assert res.exit_code != 0 and "unknown device" in str(res.exception)
+    if not __import__("torch").cuda.is_available():  # a GPU asked for where there is none:
+        with monkeypatch.context() as m:  # refused before any views are collected
+            forbid(m, "navbench.worldmodel.views.collect_views")
+            res = CliRunner().invoke(__import__("navbench.cli.main", fromlist=["app"]).app,
+                                     ["fit-map", "tiny", "--device", "cuda", "--profile", "tiny.toml"])
+        assert res.exit_code != 0 and "no CUDA device" in str(res.exception)
 
     with monkeypatch.context() as m:
         forbid(m, "navbench.worldmodel.fit.fit_map")
