@@ -148,11 +148,15 @@ def test_device_rows_run_their_code_on_the_cpu():
 
     level = resolve_level("house-1")
     vmap = voxelize_level(level, grid_for_level(level, shape=(60, 60, 12)))
-    for device in ("cpu", "torch-cpu"):
+    import torch
+
+    gpu = ["cuda"] if torch.cuda.is_available() else []  # on a GPU machine: the GPU rows' own code
+    for device in ["cpu", "torch-cpu", *gpu]:
         times = time_diff_render(level, vmap, 400, repeats=2, warmup=1, device=device)
         assert len(times) == 2 and all(t > 0 for t in times)
-    times = time_fit_step(level, repeats=2, warmup=1, views_count=4, device="torch-cpu")  # 3 x 10 steps
-    assert len(times) == 2 and all(t > 0 for t in times)
+    for device in ["torch-cpu", *gpu]:
+        times = time_fit_step(level, repeats=2, warmup=1, views_count=4, device=device)  # 3 x 10 steps
+        assert len(times) == 2 and all(t > 0 for t in times)
 
 
 def test_unknown_level_is_a_user_error(tmp_path):

@@ -14,6 +14,8 @@ from navbench.worldmodel.fastrender import FastRenderer
 from navbench.worldmodel.grid import GridSpec, grid_for_level, trilinear, voxelize_level
 
 TAU = 0.5
+#: Devices the torch (device) path is tested on: the CPU always, CUDA where torch sees a GPU.
+DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
 
 
 def _ramp_grids(spec, x0, slope, dtype=torch.float64):
@@ -180,8 +182,9 @@ def test_sparse_fitting_path_gradients_equal_dense_autograd():
     np.testing.assert_allclose(s2.grad.item(), s.grad.item(), rtol=1e-5)
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("chunk", [1, 7, 64, 500])
-def test_torch_path_is_bit_identical_to_the_dense_reference(room, chunk):
+def test_torch_path_is_bit_identical_to_the_dense_reference(room, chunk, device):
     """render_rays_torch computes the bracket from the same sample positions as the reference,
     so its values are identical (not merely close) whatever the search chunk; the gradients
     agree to float rounding (the scatter sums the same terms in another order)."""
@@ -189,16 +192,17 @@ def test_torch_path_is_bit_identical_to_the_dense_reference(room, chunk):
     rng = np.random.default_rng(5)
     R = 300
     o = torch.tensor(np.column_stack([rng.uniform(0.4, 3.6, R), rng.uniform(0.4, 2.6, R), np.full(R, 0.6)]),
-                     dtype=torch.float32)
+                     dtype=torch.float32, device=device)
     d = torch.tensor(np.column_stack([np.cos(a := rng.uniform(0, 6.3, R)), np.sin(a),
-                                      rng.uniform(-0.4, 0.4, R)]), dtype=torch.float32)
+                                      rng.uniform(-0.4, 0.4, R)]), dtype=torch.float32, device=device)
     res = []
     for render, kw in ((render_rays_dense, {}), (render_rays_torch, {"chunk": chunk})):
-        occ = torch.tensor(vm.occ).requires_grad_(True)
-        col = torch.tensor(vm.col).requires_grad_(True)
+        occ = torch.tensor(vm.occ, device=device).requires_grad_(True)
+        col = torch.tensor(vm.col, device=device).requires_grad_(True)
         out = render(occ, col, vm.spec, vm.tau, o, d, 0.05, 150, **kw)
         (out.depth.sum() + out.rgb.sum()).backward()
         res.append((out.depth, out.rgb, out.hit, occ.grad, col.grad))
+        assert all(t.device.type == device for t in res[-1])
     assert res[0][2].float().mean() > 0.5  # most rays cross something
     for a, b in zip(res[0][:3], res[1][:3]):
         assert torch.equal(a, b)

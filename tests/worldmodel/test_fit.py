@@ -16,6 +16,11 @@ from navbench.worldmodel.views import collect_views
 
 TINY = Intrinsics(40, 30, 18.75, 18.75, 20.0, 15.0)
 QUICK = dict(steps=300, grid_shape=(80, 80, 20), images_per_batch=10, pixels_per_image=100)
+#: The CPU (numba) path, whatever device "auto" would pick on this machine.
+CPU = dict(QUICK, device="cpu")
+#: Devices the torch (device) path is tested on: the CPU always, CUDA where torch sees a GPU
+#: (so `make test` on a GPU machine checks the GPU fit against the CPU one).
+DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +30,7 @@ def data(room):
 
 def test_tiny_level_fit_reaches_depth_bound(room, data):
     train, held = data
-    vmap, m = fit_map(train, FitConfig(seed=7, **QUICK), heldout=held, level=room)
+    vmap, m = fit_map(train, FitConfig(seed=7, **CPU), heldout=held, level=room)
     assert m["coverage"] > 0.99
     assert m["depth_mae_m"] < 0.05
     assert m["rgb_l1"] < 0.12
@@ -36,24 +41,24 @@ def test_tiny_level_fit_reaches_depth_bound(room, data):
 
 def test_pure_objective_learns_from_box_init(room, data):
     train, held = data
-    _, m = fit_map(train, FitConfig(seed=7, free_space_weight=0.0, **QUICK), heldout=held)
+    _, m = fit_map(train, FitConfig(seed=7, free_space_weight=0.0, **CPU), heldout=held)
     assert m["depth_mae_m"] < 0.06 and m["coverage"] > 0.99
 
 
 def test_same_seed_same_map(data):
     train, _ = data
-    cfg = FitConfig(seed=3, **{**QUICK, "steps": 20})
+    cfg = FitConfig(seed=3, **{**CPU, "steps": 20})
     a, _ = fit_map(train, cfg)
     b, _ = fit_map(train, cfg)
     np.testing.assert_array_equal(a.occ, b.occ)
     np.testing.assert_array_equal(a.col, b.col)
-    c, _ = fit_map(train, FitConfig(seed=4, **{**QUICK, "steps": 20}))
+    c, _ = fit_map(train, FitConfig(seed=4, **{**CPU, "steps": 20}))
     assert not np.array_equal(a.occ, c.occ)
 
 
 def test_progress_is_called(data):
     calls = []
-    fit_map(data[0], FitConfig(**{**QUICK, "steps": 20}), progress=lambda s, t, l: calls.append((s, t)))
+    fit_map(data[0], FitConfig(**{**CPU, "steps": 20}), progress=lambda s, t, l: calls.append((s, t)))
     assert calls == [(10, 20), (20, 20)]
 
 
@@ -80,7 +85,8 @@ def test_lazy_adam_equals_adam_when_every_cell_is_touched():
     np.testing.assert_allclose(p, ref.detach().numpy(), rtol=1e-5, atol=1e-6)
 
 
-def test_masked_adam_equals_the_cpu_lazy_adam():
+@pytest.mark.parametrize("device", DEVICES)
+def test_masked_adam_equals_the_cpu_lazy_adam(device):
     """The device path's optimiser and the CPU path's numba rows update: same touched rows and
     gradients in, same moments and values out, over steps that touch different rows (some of
     them touched with a zero gradient, which still moves by momentum)."""
@@ -89,7 +95,7 @@ def test_masked_adam_equals_the_cpu_lazy_adam():
     rng = np.random.default_rng(1)
     for shape in ((6, 5, 4), (6, 5, 4, 3)):
         p = rng.random(shape).astype(np.float32)
-        t = torch.tensor(p.copy(), requires_grad=True)
+        t = torch.tensor(p.copy(), requires_grad=True, device=device)
         opt = MaskedAdam([t], lr=0.05)
         acc = _SparseGrad(p, 0.05)
         C = shape[3] if len(shape) == 4 else 1
@@ -104,24 +110,25 @@ def test_masked_adam_equals_the_cpu_lazy_adam():
             acc.adam_step()
             full = np.zeros((rows_total, C), np.float32)
             full[rows] = g
-            t.grad = torch.tensor(full.reshape(shape))
-            mask = torch.zeros(rows_total, dtype=torch.bool)
-            mask[torch.from_numpy(rows)] = True
+            t.grad = torch.tensor(full.reshape(shape), device=device)
+            mask = torch.zeros(rows_total, dtype=torch.bool, device=device)
+            mask[torch.from_numpy(rows).to(device)] = True
             opt.step([mask])
             opt.zero_grad()
-        np.testing.assert_allclose(t.detach().numpy(), p, rtol=1e-6, atol=1e-6)
-        np.testing.assert_allclose(opt.m[0].numpy(), acc.mv[..., 0].reshape(shape), rtol=1e-5, atol=1e-7)
-        np.testing.assert_allclose(opt.v[0].numpy(), acc.mv[..., 1].reshape(shape), rtol=1e-5, atol=1e-9)
+        np.testing.assert_allclose(t.detach().cpu().numpy(), p, rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(opt.m[0].cpu().numpy(), acc.mv[..., 0].reshape(shape), rtol=1e-5, atol=1e-7)
+        np.testing.assert_allclose(opt.v[0].cpu().numpy(), acc.mv[..., 1].reshape(shape), rtol=1e-5, atol=1e-9)
         # without masks, the rows with a nonzero gradient are the touched ones
         before = t.detach().clone()
-        t.grad = torch.zeros(shape)
+        t.grad = torch.zeros(shape, device=device)
         t.grad.view(rows_total, C)[3] = 1.0
         opt.step()
         moved = (t.detach() != before).reshape(rows_total, C).any(dim=1)
-        assert moved.nonzero().squeeze(1).tolist() == [3]
+        assert moved.nonzero().squeeze(1).cpu().tolist() == [3]
 
 
-def test_device_path_touches_the_cells_of_the_cpu_path_with_its_gradients(room, data):
+@pytest.mark.parametrize("device", DEVICES)
+def test_device_path_touches_the_cells_of_the_cpu_path_with_its_gradients(room, data, device):
     """One batch through both fitting paths from the initial grids: the same rays hit, the same
     cells are touched, and the gradients agree to float32 rounding (the CPU path places samples
     in float64; where a stencil weight is ~1e-7 the two differ by that much)."""
@@ -140,16 +147,19 @@ def test_device_path_touches_the_cells_of_the_cpu_path_with_its_gradients(room, 
     g_occ, g_col = _SparseGrad(occ.copy(), 0.05), _SparseGrad(col.copy(), 0.05)
     g_occ.add(a.occ_lookup)
     g_col.add(a.col_lookup)
-    occ_t, col_t = torch.tensor(occ, requires_grad=True), torch.tensor(col, requires_grad=True)
-    b = render_rays_torch(occ_t, col_t, spec, cfg.tau, o, d, cfg.step, cfg.n_samples)
-    laplace_nll(b.rgb, b.depth, rgb, dep, s2, mask=b.hit & valid).backward()
-    assert torch.equal(a.hit, b.hit) and a.hit.float().mean() > 0.9
-    torch.testing.assert_close(a.depth, b.depth, rtol=0, atol=1e-5)
+    occ_t = torch.tensor(occ, requires_grad=True, device=device)
+    col_t = torch.tensor(col, requires_grad=True, device=device)
+    on = lambda *ts: (t.to(device) for t in ts)  # noqa: E731
+    o_d, d_d, rgb_d, dep_d, valid_d = on(o, d, rgb, dep, valid)
+    b = render_rays_torch(occ_t, col_t, spec, cfg.tau, o_d, d_d, cfg.step, cfg.n_samples)
+    laplace_nll(b.rgb, b.depth, rgb_d, dep_d, s2.to(device), mask=b.hit & valid_d).backward()
+    assert torch.equal(a.hit, b.hit.cpu()) and a.hit.float().mean() > 0.9
+    torch.testing.assert_close(a.depth, b.depth.cpu(), rtol=0, atol=1e-5)
     for acc, pts, grad in ((g_occ, b.occ_points, occ_t.grad), (g_col, b.col_points, col_t.grad)):
         cpu_rows = np.zeros(len(acc.g), bool)
         cpu_rows[acc.touched[:acc.count]] = True
-        np.testing.assert_array_equal(stencil_mask(spec, pts).numpy(), cpu_rows)
-        np.testing.assert_allclose(grad.numpy().reshape(acc.g.shape), acc.g, rtol=1e-3, atol=1e-4)
+        np.testing.assert_array_equal(stencil_mask(spec, pts).cpu().numpy(), cpu_rows)
+        np.testing.assert_allclose(grad.cpu().numpy().reshape(acc.g.shape), acc.g, rtol=1e-3, atol=1e-4)
 
 
 def _reference_draw(sampler):
@@ -202,14 +212,16 @@ def test_evaluate_true_map_is_near_perfect(room, data):
     assert m["slice_precision"] > 0.99 and m["slice_recall"] > 0.99
 
 
-def test_device_path_fits_the_tiny_level_as_well_as_the_cpu_path(room, data):
+@pytest.mark.parametrize("device", ["torch-cpu"] + DEVICES[1:])
+def test_device_path_fits_the_tiny_level_as_well_as_the_cpu_path(room, data, device):
     """The GPU path (torch renderer, masked lazy Adam) run on the CPU: same objective, same
     batches, same optimiser semantics, so the map is as good as the CPU path's (the paths part
     after a few steps through float32 rounding, so the maps are compared by their quality)."""
     train, held = data
-    vmap, m = fit_map(train, FitConfig(seed=7, device="torch-cpu", **QUICK), heldout=held, level=room)
-    _, ref = fit_map(train, FitConfig(seed=7, **QUICK), heldout=held, level=room)
-    assert m["device"] == "torch-cpu" and vmap.meta["device"] == "torch-cpu"
+    vmap, m = fit_map(train, FitConfig(seed=7, device=device, **QUICK), heldout=held, level=room)
+    _, ref = fit_map(train, FitConfig(seed=7, device="cpu", **QUICK), heldout=held, level=room)
+    want = "torch-cpu" if device == "torch-cpu" else "cuda:"
+    assert m["device"].startswith(want) and vmap.meta["device"] == m["device"]
     assert ref["device"] == "cpu"
     assert m["coverage"] > 0.99
     assert m["depth_mae_m"] < 1.2 * ref["depth_mae_m"] and m["rgb_l1"] < 1.2 * ref["rgb_l1"]
