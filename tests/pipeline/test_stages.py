@@ -158,6 +158,9 @@ def test_bundled_profiles_load_and_validate():
     assert quick.noise == ("mid",) and set(quick.estimators) == {"ours", "no-map", "dynamics"}
     assert len(paper.levels) == 6 and paper.views == 5000 and paper.fit_steps == 10000
     assert paper.tasks == 200 and paper.noise == ("low", "mid", "high") and paper.camera == "paper"
+    six = load_profile("six")  # the paper's grid with the quick profile's budget
+    assert six.levels == paper.levels and six.noise == paper.noise and six.estimators == paper.estimators
+    assert (six.camera, six.views, six.fit_steps, six.tasks) == ("half", quick.views, quick.fit_steps, 30)
     assert override(quick, tasks=5, noise=["low"], workers=None).tasks == 5
     with pytest.raises(ConfigError):
         profile_from_dict({"name": "x", "tasks": {"cout": 3}})
