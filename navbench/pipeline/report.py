@@ -33,12 +33,15 @@ from navbench.pipeline.score import (
     NOISE_ORDER,
     _order_key,
     estimator_variants,
+    mixed_setups_warning,
     select_episodes,
     spl_matrix,
     summarise,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
+    from collections.abc import Collection
+
     import pandas
 
     from navbench.pipeline.db import ResultsDB
@@ -233,6 +236,9 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     if table is None or table.empty:
         page.note("No navigation episodes stored yet (run `navbench run-navigation`).")
         return
+    warning = mixed_setups_warning(table)
+    if warning:
+        page.note("Warning: " + warning.replace("--run", "`navbench report --run`") + ".")
     m = spl_matrix(table, "all")
     page.table(m, "spl_table", "SPL pooled over all levels, [95% bootstrap interval]", index=True)
     paper = pd.DataFrame(
@@ -433,11 +439,14 @@ def _bench_history(rows: "pandas.DataFrame") -> "pandas.DataFrame":
 
 def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: TrajectoryLoader | None = None,
                  load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
-                 n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3) -> Path:
+                 n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3,
+                 run: int | str | None = None, cell_keys: "Collection[str] | None" = None) -> Path:
     """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
-    ``NAME.json`` level files for the top views.
+    ``NAME.json`` level files for the top views. The navigation sections show every stored
+    episode, or those of ``run`` (as :func:`~navbench.pipeline.score.select_episodes`) and/or of
+    the cells ``cell_keys`` (``navbench all`` passes its grid's cells).
     """
     from navbench import __version__
 
@@ -445,7 +454,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     out.mkdir(parents=True, exist_ok=True)
     page = _Page(out)
     runs = db.runs_frame()
-    episodes = select_episodes(db)
+    episodes = select_episodes(db, run=run)
+    if cell_keys is not None and not episodes.empty:
+        episodes = episodes[episodes["cell_key"].isin(set(cell_keys))].reset_index(drop=True)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 

@@ -19,6 +19,11 @@ Per group (level, estimator, noise; plus ``level = "all"`` pooled over levels):
 Each with a 95 % percentile-bootstrap interval (:func:`bootstrap_ci`, seeded, 2000 resamples of
 the group's episodes). An estimator run with several option sets is split into variants labelled
 ``name{key=value,...}``.
+
+``setups`` counts the cells a group pools within one level: 1 unless the database holds the same
+(level, estimator, noise) under several maps, task sets or episode settings (say a quick run and
+a paper run). Such a row mixes experiments; :func:`mixed_setups` lists them, and ``score`` and the
+report warn. Narrow with ``run`` (or keep experiments in separate databases).
 """
 
 from __future__ import annotations
@@ -146,7 +151,7 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
     """
     import pandas as pd
 
-    columns = ["level", "estimator", "noise", "episodes"]
+    columns = ["level", "estimator", "noise", "episodes", "setups"]
     for name, _, _ in METRICS:
         columns += [name, f"{name}_ci_low", f"{name}_ci_high"]
     columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high"]
@@ -161,8 +166,9 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
     out = []
     for lvl, g in groups:
         for (est, noise), cell in g.groupby(["variant", "noise"], sort=False):
+            setups = int(cell.groupby("level")["cell_key"].nunique().max())
             row: dict[str, Any] = {"level": lvl, "estimator": est, "noise": noise,
-                                   "episodes": int(len(cell))}
+                                   "episodes": int(len(cell)), "setups": setups}
             for name, col, stat in METRICS:
                 vals = cell[col].to_numpy(dtype=float)
                 row[name] = _point(vals, stat)
@@ -179,6 +185,25 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
                                  _order_key(r["estimator"].split("{")[0], ESTIMATOR_ORDER),
                                  r["estimator"]), axis=1)
     return table.iloc[sorted(range(len(table)), key=lambda i: key.iloc[i])].reset_index(drop=True)
+
+
+def mixed_setups(table: "pandas.DataFrame") -> list[str]:
+    """``"level/estimator/noise"`` of every per-level row of a score table that pools episodes
+    of more than one setup (cell): a warning's worth, see the module docstring."""
+    if table.empty or "setups" not in table.columns:
+        return []
+    rows = table[(table["level"] != "all") & (table["setups"] > 1)]
+    return [f"{r.level}/{r.estimator}/{r.noise}" for r in rows.itertuples()]
+
+
+def mixed_setups_warning(table: "pandas.DataFrame") -> str | None:
+    """One line naming the rows of :func:`mixed_setups`, or ``None``."""
+    mixed = mixed_setups(table)
+    if not mixed:
+        return None
+    shown = ", ".join(mixed[:4]) + (f" and {len(mixed) - 4} more" if len(mixed) > 4 else "")
+    return (f"{len(mixed)} row(s) pool episodes of several setups (maps, task sets or episode "
+            f"settings): {shown}; narrow with --run, or keep experiments in separate databases")
 
 
 def score_table(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,

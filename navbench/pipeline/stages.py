@@ -34,7 +34,7 @@ from navbench.pipeline.cache import ArtifactStore, run_stage
 
 #: Artifact format versions: bump one to invalidate that stage's cache.
 FORMAT = {"make-level": 1, "collect-views": 1, "fit-map": 1, "true-map": 1, "sample-tasks": 1,
-          "episode": 1, "score": 1, "report": 1}
+          "episode": 1, "score": 1, "report": 2}
 #: Estimators that never look at camera frames: their simulator skips rendering.
 FRAMELESS_ESTIMATORS = frozenset({"gt", "dynamics"})
 
@@ -788,16 +788,18 @@ REPORT_INDEX = "index.html"
 
 
 def report_stage(ctx: StageContext, cells: list[Cell], score: Ref) -> Ref:
-    """The HTML report (:func:`navbench.pipeline.report.build_report`) with trajectories and maps
-    read from this store, cached by the score artifact and the cells' stored episodes (so a
-    rerun that adds nothing does not redraw it; its run list is as of the last redraw)."""
+    """The HTML report (:func:`navbench.pipeline.report.build_report`) of these cells' episodes
+    (as the score stage), with trajectories and maps read from this store, cached by the score
+    artifact and the cells' stored episodes (so a rerun that adds nothing does not redraw it;
+    its run list is as of the last redraw)."""
     state = episodes_state_key(ctx, cells)
 
     def compute(d: Path) -> None:
         from navbench.pipeline.report import build_report, store_loaders
 
         load_trajectory, load_map = store_loaders(ctx.store.root)
-        index = Path(build_report(ctx.db, d, load_trajectory, load_map, levels_dir=ctx.levels_dir))
+        index = Path(build_report(ctx.db, d, load_trajectory, load_map, levels_dir=ctx.levels_dir,
+                                  cell_keys=[c.key for c in cells]))
         if index.name != REPORT_INDEX or index.parent.resolve() != d.resolve():
             raise ArtifactError(f"build_report wrote {index}, expected {d / REPORT_INDEX}")
 

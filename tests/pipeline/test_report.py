@@ -220,6 +220,28 @@ def test_bench_history_puts_runs_side_by_side(tmp_path):
     assert np.isnan(h.loc[("plan_ms", "ms", "cpu")].iloc[0]) and h.loc[("plan_ms", "ms", "cpu")].iloc[1] == 2.0
 
 
+def test_report_scope_and_the_mixed_setups_warning(synthetic):
+    """A second setup of lvA/ours/low (another cell, another run) is pooled by a report of the
+    whole database, with a warning; the report of the first grid's cells (what `navbench all`
+    writes) or of one run leaves it out."""
+    db, _, tmp = synthetic
+    cells = set(db.episodes_frame()["cell_key"])
+    r2 = db.start_run("paper", "all", {}, "e" * 64)
+    db.add_episodes(r2, [episode("other-setup", 0, level="lvA", estimator="ours", noise="low",
+                                 success=False, spl_term=0.0)])
+    text = build_report(db, tmp / "all", levels_dir=tmp / "levels", n_boot=20).read_text()
+    assert "pool episodes of several setups" in text and "lvA/ours/low" in text
+    for kw in ({"cell_keys": cells}, {"run": 1}):
+        out = tmp / f"scoped-{len(kw)}-{next(iter(kw))}"
+        text = build_report(db, out, levels_dir=tmp / "levels", n_boot=20, **kw).read_text()
+        assert "several setups" not in text
+        scores = pd.read_csv(out / "scores.csv")
+        row = scores[(scores["level"] == "lvA") & (scores["estimator"] == "ours") & (scores["noise"] == "low")]
+        assert row["episodes"].tolist() == [4] and set(scores["setups"]) == {1}  # 4 tasks, 1 setup
+    one = build_report(db, tmp / "r2", levels_dir=tmp / "levels", n_boot=20, run=r2)
+    assert pd.read_csv(one.parent / "scores.csv")["episodes"].tolist() == [1, 1]
+
+
 def test_report_on_empty_database(tmp_path):
     with ResultsDB(f"sqlite:///{tmp_path / 'e.db'}") as db:
         index = build_report(db, tmp_path / "out", levels_dir=tmp_path / "nolevels")

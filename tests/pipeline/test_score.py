@@ -173,7 +173,7 @@ def test_cli_json_csv_table(db, tmp_path):
     res = runner.invoke(app, ["score", "--format", "csv", "--db", url, "--level", "l2", "--boot", "50"])
     assert res.exit_code == 0
     lines = res.stdout.strip().splitlines()
-    assert lines[0].startswith("level,estimator,noise,episodes,success_rate") and len(lines) == 3
+    assert lines[0].startswith("level,estimator,noise,episodes,setups,success_rate") and len(lines) == 3
     res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--run", "latest"])
     assert res.exit_code == 0 and "high" in res.stdout and "SPL" in res.stdout
 
@@ -202,3 +202,26 @@ def test_cli_db_info_and_runs(db):
     assert res.exit_code == 0 and "episodes" in res.stdout and "8" in res.stdout
     res = runner.invoke(app, ["db", "runs", "--db", db.url])
     assert res.exit_code == 0 and "quick" in res.stdout and "2 most recent runs" in res.stdout
+
+
+def test_rows_that_pool_several_setups_are_counted_and_warned(db, tmp_path):
+    """The same (level, estimator, noise) stored under two cells (say a quick run and a paper run
+    with another map): the row says so, and the CLI warns on stderr."""
+    from navbench.cli.main import app
+    from navbench.pipeline.score import mixed_setups, mixed_setups_warning
+
+    _fill(db)
+    table = score_table(db, n_boot=20)
+    assert set(table["setups"]) == {1} and mixed_setups(table) == []
+    assert mixed_setups_warning(table) is None
+    r3 = db.start_run("paper", "run-navigation", {}, "c")
+    db.add_episodes(r3, [episode("c9", 0, level="l1", success=True, spl_term=0.95)])  # l1/ours/low again
+    table = score_table(db, n_boot=20)
+    assert _row(table, "l1")["setups"] == 2 and _row(table, "all")["setups"] == 2
+    assert _row(table, "l2")["setups"] == 1 and _row(table, "l1", "dynamics")["setups"] == 1
+    assert mixed_setups(table) == ["l1/ours/low"]
+    assert "l1/ours/low" in mixed_setups_warning(table)
+    assert mixed_setups(score_table(db, run=str(r3), n_boot=20)) == []  # one run: one setup
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    res = CliRunner().invoke(app, ["score", "--db", url, "--boot", "20"])
+    assert res.exit_code == 0 and "pool episodes of several setups" in res.stderr

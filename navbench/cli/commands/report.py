@@ -16,6 +16,7 @@ def report(
     levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),
     boot: int = typer.Option(2000, "--boot", min=1, help="Bootstrap resamples for the 95% intervals."),
     trajectories: int = typer.Option(3, "--trajectories", min=0, help="Trajectories drawn per level."),
+    run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), or 'all'."),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
@@ -27,7 +28,8 @@ def report(
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
         index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
-                             levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories)
+                             levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
+                             run=run)
     console.print(f"report written to {index}")
 
 

@@ -39,10 +39,14 @@ def score(
     import sys
 
     from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.score import score_table, table_records
+    from navbench.cli._common import err_console
+    from navbench.pipeline.score import mixed_setups_warning, score_table, table_records
 
     with ResultsDB(db, create=False) as rdb:
         table = score_table(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
+    warning = mixed_setups_warning(table)
+    if warning:
+        err_console.print(f"[yellow]warning:[/] {warning}", markup=True)
     if fmt is Format.json:
         from navbench.cli._common import print_json
 
