@@ -29,6 +29,18 @@ class Estimator(Protocol):
         """Return the new planar pose estimate ``(3,)`` after ``control`` was executed."""
 
 
+def check_update(estimator: Any, frame: Frame) -> None:
+    """The checks every camera estimator's ``update`` starts with: ``reset`` came first, and
+    ``frame`` has the size of the estimator's ``intrinsics``; raises :class:`TrackingError`."""
+    from navbench.errors import TrackingError
+
+    if estimator.pose is None:
+        raise TrackingError(f"estimator {estimator.name!r}: update() before reset()")
+    if frame.depth.shape != estimator.intrinsics.shape:
+        raise TrackingError(f"estimator {estimator.name!r}: observation is {frame.depth.shape}, "
+                            f"intrinsics say {estimator.intrinsics.shape}")
+
+
 _REGISTRY: dict[str, Any] = {}
 
 

@@ -36,7 +36,7 @@ import numpy as np
 
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, Frame, Intrinsics, camera_pose
-from navbench.track.base import register_estimator
+from navbench.track.base import check_update, register_estimator
 from navbench.track.lie import planar_from_camera, se3_exp
 from navbench.track.ours import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
 
@@ -237,11 +237,7 @@ class EmissionTracker:
     def update(self, control, frame: Frame, true_pose=None) -> np.ndarray:
         from navbench.sim.dynamics import predict
 
-        if self.pose is None:
-            raise TrackingError("update() before reset()")
-        if frame.depth.shape != self.intrinsics.shape:
-            raise TrackingError(f"observation is {frame.depth.shape}, intrinsics say "
-                                f"{self.intrinsics.shape}")
+        check_update(self, frame)
         t0 = time.perf_counter()
         H, W = self.intrinsics.shape
         table = pixel_table(H, W, 100, self.config.pixels, self.seed)

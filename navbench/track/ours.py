@@ -87,7 +87,7 @@ from navbench.geometry import (
     pixel_rays,
 )
 from navbench.sim.dynamics import NOISE_LEVELS, predict
-from navbench.track.base import register_estimator
+from navbench.track.base import check_update, register_estimator
 from navbench.track.lie import hat, planar_from_camera, se3_exp, se3_inverse, se3_log
 
 #: Tracking-study noise ``(sigma_alpha [rad], sigma_s [m])`` = (3 deg, 0.05 L), the default prior.
@@ -783,11 +783,7 @@ class _PredictionToObservation:
         return self._ref, 0.0
 
     def update(self, control, frame: Frame, true_pose=None) -> np.ndarray:
-        if self.pose is None:
-            raise TrackingError("update() before reset()")
-        if frame.depth.shape != self.intrinsics.shape:
-            raise TrackingError(f"observation is {frame.depth.shape}, intrinsics say "
-                                f"{self.intrinsics.shape}")
+        check_update(self, frame)
         t0 = time.perf_counter()
         ref, ms_render = self._reference()
         t1 = time.perf_counter()

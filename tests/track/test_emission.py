@@ -71,3 +71,13 @@ def test_emission_needs_a_map_and_known_options(room_map):
         make_estimator("emission", vmap=room_map, intrinsics=SMALL, learning_rate=1)
     cfg = make_estimator("emission", vmap=room_map, intrinsics=SMALL).config
     assert (cfg.steps, cfg.pixels, cfg.lr) == (100, 1000, (0.001, 0.002))
+    from navbench.worldmodel.fastrender import FastRenderer
+
+    est = make_estimator("emission", vmap=room_map, intrinsics=SMALL)
+    frame = FastRenderer(room_map, SMALL).render(np.array([1.2, 1.0, 0.5]))
+    with pytest.raises(TrackingError, match="before reset"):
+        est.update(Control(0.0, 0.5, 0.1), frame)
+    est.reset(np.array([1.2, 1.0, 0.5]), frame)
+    wrong = FastRenderer(room_map, HALF_CAMERA).render(np.array([1.2, 1.0, 0.5]))
+    with pytest.raises(TrackingError, match="intrinsics say"):
+        est.update(Control(0.0, 0.5, 0.1), wrong)
