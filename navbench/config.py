@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+from pathlib import Path
 from typing import Any
 
 
@@ -36,3 +37,16 @@ def canonical_json(obj: Any) -> str:
 def config_hash(obj: Any) -> str:
     """Full sha256 hex digest of ``canonical_json(obj)``."""
     return hashlib.sha256(canonical_json(obj).encode()).hexdigest()
+
+
+def read_json(path: str | Path, error: type[Exception], missing: str,
+              invalid: str = "not valid JSON") -> Any:
+    """The JSON document in ``path``; raises ``error(missing)`` when there is no such file and
+    ``error("<path>: <invalid> (<reason>)")`` when it is not readable JSON."""
+    path = Path(path)
+    if not path.is_file():
+        raise error(missing)
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise error(f"{path}: {invalid} ({e})") from None

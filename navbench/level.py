@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from navbench.config import read_json
 from navbench.errors import LevelError
 from navbench.geometry import LEVEL_HEIGHT
 
@@ -430,13 +431,7 @@ def _is_convex(poly: np.ndarray) -> bool:
 def load_level(path: str | Path) -> Level:
     """Load and validate ``path``; raise :class:`LevelError` naming the bad field."""
     path = Path(path)
-    if not path.is_file():
-        raise LevelError(f"{path}: no such level file")
-    try:
-        doc = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise LevelError(f"{path}: not valid JSON ({e})") from None
-    return level_from_dict(doc, str(path))
+    return level_from_dict(read_json(path, LevelError, f"{path}: no such level file"), str(path))
 
 
 def level_path(name: str, root: str | Path = ".") -> Path:

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from navbench import __version__
-from navbench.config import config_hash, to_jsonable
+from navbench.config import config_hash, read_json, to_jsonable
 from navbench.errors import ArtifactError
 
 MANIFEST = "manifest.json"
@@ -115,12 +115,7 @@ class ArtifactStore:
         """
         d = self.path(stage, key)
         mf = d / MANIFEST
-        if not mf.is_file():
-            raise ArtifactError(f"{d}: no manifest")
-        try:
-            man = json.loads(mf.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as e:
-            raise ArtifactError(f"{mf}: unreadable manifest ({e})") from None
+        man = read_json(mf, ArtifactError, f"{d}: no manifest", "unreadable manifest")
         if not isinstance(man, dict) or man.get("key") != key or man.get("stage") != stage:
             raise ArtifactError(f"{mf}: manifest does not describe {stage}/{key[:12]}")
         files = man.get("files")

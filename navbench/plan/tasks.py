@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.config import read_json
 from navbench.errors import TaskError
 from navbench.geometry import AGENT_LENGTH, AGENT_RADIUS
 
@@ -225,13 +226,7 @@ def task_set_from_dict(doc, source: str = "<tasks>") -> TaskSet:
 def read_task_file(path) -> TaskSet:
     """Load and validate a task file with its metadata."""
     path = Path(path)
-    if not path.is_file():
-        raise TaskError(f"{path}: no such task file")
-    try:
-        doc = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise TaskError(f"{path}: not valid JSON ({e})") from None
-    return task_set_from_dict(doc, str(path))
+    return task_set_from_dict(read_json(path, TaskError, f"{path}: no such task file"), str(path))
 
 
 def load_tasks(path) -> list[Task]:
