@@ -41,6 +41,22 @@ def check_update(estimator: Any, frame: Frame) -> None:
                             f"intrinsics say {estimator.intrinsics.shape}")
 
 
+def config_from_options(base: Any, options: dict[str, Any], what: str) -> Any:
+    """``base`` (a frozen dataclass config) with keyword ``options`` applied; sequence values of
+    tuple fields become float tuples; unknown names raise :class:`TrackingError` naming ``what``."""
+    from dataclasses import fields, replace
+
+    from navbench.errors import TrackingError
+
+    names = {f.name for f in fields(base)}
+    unknown = sorted(set(options) - names)
+    if unknown:
+        raise TrackingError(f"unknown {what} option(s) {unknown}; known: {sorted(names)}")
+    conv = {k: (tuple(float(x) for x in v) if isinstance(getattr(base, k), tuple) else v)
+            for k, v in options.items()}
+    return replace(base, **conv)
+
+
 _REGISTRY: dict[str, Any] = {}
 
 

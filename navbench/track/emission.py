@@ -29,14 +29,14 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, Frame, Intrinsics, camera_pose
-from navbench.track.base import check_update, register_estimator
+from navbench.track.base import check_update, config_from_options, register_estimator
 from navbench.track.lie import planar_from_camera, se3_exp
 from navbench.track.ours import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
 
@@ -70,14 +70,7 @@ class EmissionConfig:
 
 def make_emission_config(options: dict) -> EmissionConfig:
     """Build an :class:`EmissionConfig` from keyword options; unknown names raise TrackingError."""
-    base = EmissionConfig()
-    names = {f.name for f in fields(EmissionConfig)}
-    unknown = sorted(set(options) - names)
-    if unknown:
-        raise TrackingError(f"unknown emission option(s) {unknown}; known: {sorted(names)}")
-    conv = {k: (tuple(float(x) for x in v) if isinstance(getattr(base, k), tuple) else v)
-            for k, v in options.items()}
-    return replace(base, **conv)
+    return config_from_options(EmissionConfig(), options, "emission")
 
 
 def _camera_rotation_t(theta):

@@ -70,7 +70,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Callable, NamedTuple
 
@@ -87,7 +87,7 @@ from navbench.geometry import (
     pixel_rays,
 )
 from navbench.sim.dynamics import NOISE_LEVELS, predict
-from navbench.track.base import check_update, register_estimator
+from navbench.track.base import check_update, config_from_options, register_estimator
 from navbench.track.lie import hat, planar_from_camera, se3_exp, se3_inverse, se3_log
 
 #: Tracking-study noise ``(sigma_alpha [rad], sigma_s [m])`` = (3 deg, 0.05 L), the default prior.
@@ -151,14 +151,7 @@ class TrackerConfig:
 
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:
     """Build a :class:`TrackerConfig` from keyword options; unknown names raise TrackingError."""
-    base = base or TrackerConfig()
-    names = {f.name for f in fields(TrackerConfig)}
-    unknown = sorted(set(options) - names)
-    if unknown:
-        raise TrackingError(f"unknown tracker option(s) {unknown}; known: {sorted(names)}")
-    conv = {k: (tuple(float(x) for x in v) if isinstance(getattr(base, k), tuple) else v)
-            for k, v in options.items()}
-    return replace(base, **conv)
+    return config_from_options(base or TrackerConfig(), options, "tracker")
 
 
 # ------------------------------------------------------------------------------ pixel tables
