@@ -11,12 +11,13 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 
 setup: $(STAMP)
 
-# Reinstalls only when pyproject.toml changes. torch==2.13.0 resolves to the CPU wheel on this
-# machine; GPU users install their own torch build into the venv first (see README).
-$(STAMP): pyproject.toml
+# Reinstalls only when pyproject.toml or constraints.txt changes. constraints.txt pins exactly
+# torch==2.13.0, which resolves to the CPU wheel on this machine; GPU users install their own
+# torch build into the venv first (see README).
+$(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e ".[test,ray,postgres]"
+	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test,ray,postgres]"
 	touch $(STAMP)
 
 test: setup

@@ -1,11 +1,12 @@
 """A gymnasium point-goal navigation environment around the :class:`~navbench.sim.world.Simulator`.
 
-Nothing is registered globally: build ``PointNavEnv(level, ...)`` directly.
+Build ``PointNavEnv(level, ...)`` directly, or through gymnasium after ``import navbench.envs``
+(which registers ``navbench/PointNav-v0``): ``gymnasium.make("navbench/PointNav-v0", level="house-1")``.
 
 Observation (``Dict``):
 
 * ``rgb``: ``(H, W, 3)`` uint8, the camera image (``round(255 * rgb)``);
-* ``depth``: ``(H, W)`` float32 z-depth in metres; pixels that see nothing within ``max_range``
+* ``depth``: ``(H, W, 1)`` float32 z-depth in metres (one channel, as RL libraries expect of an image); pixels that see nothing within ``max_range``
   (``valid = False`` in the simulator's frame) read ``max_range``;
 * ``goal``: ``(2,)`` float32 ``(distance [m], bearing [rad])`` of the goal in the agent frame,
   the bearing counter-clockwise from the heading, in ``[-pi, pi)``.
@@ -96,7 +97,7 @@ class PointNavEnv(gym.Env):
         if intrinsics is not None:
             H, W = intrinsics.height, intrinsics.width
             obs["rgb"] = spaces.Box(0, 255, (H, W, 3), np.uint8)
-            obs["depth"] = spaces.Box(0.0, self.max_range, (H, W), np.float32)
+            obs["depth"] = spaces.Box(0.0, self.max_range, (H, W, 1), np.float32)
         diag = math.hypot(level.width, level.depth)
         obs["goal"] = spaces.Box(np.array([0.0, -math.pi], np.float32), np.array([diag, math.pi], np.float32),
                                  dtype=np.float32)
@@ -133,7 +134,8 @@ class PointNavEnv(gym.Env):
         f = self._frame
         if f is not None:
             out["rgb"] = np.round(np.clip(f.rgb, 0.0, 1.0) * 255).astype(np.uint8)
-            out["depth"] = np.where(f.valid, np.minimum(f.depth, self.max_range), self.max_range).astype(np.float32)
+            depth = np.where(f.valid, np.minimum(f.depth, self.max_range), self.max_range)
+            out["depth"] = depth.astype(np.float32)[..., None]
         out["goal"] = self._goal_obs()
         return out
 

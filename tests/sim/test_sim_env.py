@@ -97,3 +97,44 @@ def test_bad_tasks_raise():
         PointNavEnv(rooms(), intrinsics=None, tasks=[])
     with pytest.raises(TaskError):
         PointNavEnv(rooms(), intrinsics=None, tasks=[(1.0, 2.0, 3.0)])
+
+
+def test_registered_with_gymnasium(tmp_path, monkeypatch):
+    """``gymnasium.make("navbench/PointNav-v0", level=...)`` after ``import navbench.envs``, by
+    level object and by name (levels/NAME.json of the working directory); depth is (H, W, 1)."""
+    import gymnasium as gym
+
+    import navbench.envs  # noqa: F401
+    from navbench.level import save_level
+
+    env = gym.make("navbench/PointNav-v0", level=rooms(), intrinsics=SMALL, noise="low", seed=0)
+    obs, info = env.reset()
+    assert obs["depth"].shape == (SMALL.height, SMALL.width, 1)
+    assert env.observation_space["depth"].shape == (SMALL.height, SMALL.width, 1)
+    assert obs["rgb"].shape == (SMALL.height, SMALL.width, 3)
+    direct = PointNavEnv(rooms(), intrinsics=SMALL, noise="low", seed=0)
+    obs2, _ = direct.reset()
+    np.testing.assert_array_equal(obs["depth"], obs2["depth"])
+
+    (tmp_path / "levels").mkdir()
+    save_level(rooms(), tmp_path / "levels" / f"{rooms().name}.json")
+    monkeypatch.chdir(tmp_path)
+    env = gym.make("navbench/PointNav-v0", level=rooms().name, intrinsics=None, seed=1)
+    obs, _ = env.reset()
+    assert set(obs) == {"goal"}
+
+
+def test_module_prefixed_id_registers_itself():
+    import subprocess
+    import sys
+
+    code = ("import gymnasium as gym\n"
+            "from navbench.geometry import Intrinsics\n"
+            "from tests.sim.fixtures import rooms\n"
+            "env = gym.make('navbench.envs:navbench/PointNav-v0', level=rooms(), intrinsics=None)\n"
+            "print(env.spec.id)\n")
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=root)
+    assert out.stdout.strip() == "navbench/PointNav-v0"
