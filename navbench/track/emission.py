@@ -15,7 +15,7 @@ follows the surface point ``p* = c + k* v`` as the pose moves).
 
 Optimiser: Adam with step sizes ``lr = (0.001, 0.002)`` for translation and rotation (appendix
 E), ``steps`` (100) steps, step ``i`` on row ``i`` of the same fixed ``100 x pixels`` index
-table as ``ours`` (:func:`navbench.track.ours.pixel_table`); the paper's budget is
+table as ``ours`` (:func:`navbench.track.eq7.pixel_table`); the paper's budget is
 ``steps=100, pixels=1000``. Parameterisations as in ``ours``: ``planar`` ``(x, y, theta)`` or
 ``se3`` (right perturbations of the camera pose, result projected to planar).
 
@@ -38,7 +38,7 @@ from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, Frame, Intrinsics, camera_pose
 from navbench.track.base import check_update, config_from_options, register_estimator
 from navbench.track.lie import planar_from_camera, se3_exp
-from navbench.track.ours import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
+from navbench.track.eq7 import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
 
 
 @dataclass(frozen=True)
@@ -148,7 +148,7 @@ class EmissionObjective:
 
 
 def _prior(param, state, pred, cfg: EmissionConfig, camera_height):
-    from navbench.track.ours import TrackerConfig, prior_terms
+    from navbench.track.eq7 import TrackerConfig, prior_terms
 
     tc = TrackerConfig(prior_sigma=cfg.prior_sigma, off_plane_sigma=cfg.off_plane_sigma)
     return prior_terms(param, state, pred, tc, camera_height)

@@ -10,7 +10,8 @@ import pytest
 from navbench.errors import TrackingError
 from navbench.geometry import HALF_CAMERA, Frame, Intrinsics, camera_pose
 from navbench.sim.dynamics import Control, predict
-from navbench.track import ours
+from navbench.track import eq7, ours
+from navbench.track.lie import se3_exp
 from navbench.track.base import make_estimator
 
 from .synth import flat_wall, render_box, small_level
@@ -69,14 +70,14 @@ def test_ours_renders_the_reference_once_per_step_at_the_previous_estimate():
 def test_point_to_plane_is_blind_to_sliding_along_a_wall_but_not_across_it():
     pose = np.array([1.0, 0.0, 0.0])  # facing the wall x = 3 head-on
     frame = flat_wall(pose)
-    ref = ours.prepare_reference(frame, HALF_CAMERA, camera_pose(pose))
+    ref = eq7.prepare_reference(frame, HALF_CAMERA, camera_pose(pose))
     idx = ours.gn_pixels(*HALF_CAMERA.shape, 2000)
-    obs = ours.sample_observation(frame, HALF_CAMERA, idx)
+    obs = eq7.sample_observation(frame, HALF_CAMERA, idx)
     cfg = ours.TrackerConfig()
 
     def res(state):
-        q, dq = ours.transform_and_jacobian("planar", state, ref.T_wc, obs.points, 0.5)
-        return ours.residuals(ref, obs, q, dq)
+        q, dq = eq7.transform_and_jacobian("planar", state, ref.T_wc, obs.points, 0.5)
+        return eq7.residuals(ref, obs, q, dq)
 
     slide = res(pose + [0.0, 0.03, 0.0])  # along the wall
     assert slide.geo_ok.sum() > 1000
@@ -92,27 +93,27 @@ def test_point_to_plane_is_blind_to_sliding_along_a_wall_but_not_across_it():
 def test_analytic_jacobians_equal_finite_differences(param):
     z_ref = np.array([2.0, 1.4, 0.2])
     frame_ref = render_box(z_ref)
-    ref = ours.prepare_reference(frame_ref, HALF_CAMERA, camera_pose(z_ref))
+    ref = eq7.prepare_reference(frame_ref, HALF_CAMERA, camera_pose(z_ref))
     obs_frame = render_box(z_ref + [0.04, -0.03, 0.05])
     idx = ours.gn_pixels(*HALF_CAMERA.shape, 1500, seed=3)
-    obs = ours.sample_observation(obs_frame, HALF_CAMERA, idx)
+    obs = eq7.sample_observation(obs_frame, HALF_CAMERA, idx)
     state = z_ref + np.array([0.05, -0.02, 0.04])
     if param == "se3":
-        state = camera_pose(state, 0.5) @ ours.se3_exp(np.array([0.01, 0.002, -0.01, 0.003, 0.02, -0.002]))
-    q, dq = ours.transform_and_jacobian(param, state, ref.T_wc, obs.points, 0.5)
-    r0 = ours.residuals(ref, obs, q, dq)
+        state = camera_pose(state, 0.5) @ se3_exp(np.array([0.01, 0.002, -0.01, 0.003, 0.02, -0.002]))
+    q, dq = eq7.transform_and_jacobian(param, state, ref.T_wc, obs.points, 0.5)
+    r0 = eq7.residuals(ref, obs, q, dq)
     P = dq.shape[-1]
     eps = 1e-6
     checked = 0
     for c in range(P):
         d = np.zeros(P)
         d[c] = eps
-        qp, _ = ours.transform_and_jacobian(param, ours.retract(param, state, d), ref.T_wc, obs.points, 0.5)
-        qm, _ = ours.transform_and_jacobian(param, ours.retract(param, state, -d), ref.T_wc, obs.points, 0.5)
+        qp, _ = eq7.transform_and_jacobian(param, eq7.retract(param, state, d), ref.T_wc, obs.points, 0.5)
+        qm, _ = eq7.transform_and_jacobian(param, eq7.retract(param, state, -d), ref.T_wc, obs.points, 0.5)
         # dq itself
         assert np.allclose((qp - qm) / (2 * eps), dq[:, :, c], atol=1e-7)
-        rp = ours.residuals(ref, obs, qp, None)
-        rm = ours.residuals(ref, obs, qm, None)
+        rp = eq7.residuals(ref, obs, qp, None)
+        rm = eq7.residuals(ref, obs, qm, None)
         # compare where nothing discrete changed (same bilinear cell, same association)
         same = _cells(ref, qp) == _cells(ref, qm)
         keep = r0.geo_ok & rp.geo_ok & rm.geo_ok & same
@@ -136,23 +137,23 @@ def _cells(ref, q):
 @pytest.mark.parametrize("param", ["planar", "se3"])
 def test_fast_kernel_equals_the_numpy_reference(param):
     z_ref = np.array([2.0, 1.4, 0.2])
-    ref = ours.prepare_reference(render_box(z_ref), HALF_CAMERA, camera_pose(z_ref))
-    obs = ours.sample_observation(render_box(z_ref + [0.03, 0.02, -0.04]), HALF_CAMERA,
+    ref = eq7.prepare_reference(render_box(z_ref), HALF_CAMERA, camera_pose(z_ref))
+    obs = eq7.sample_observation(render_box(z_ref + [0.03, 0.02, -0.04]), HALF_CAMERA,
                                   ours.gn_pixels(*HALF_CAMERA.shape, 2000, seed=1))
     cfg = ours.TrackerConfig(photo_threshold=0.3, geo_weight=7.0)  # some pixels over the threshold
     state = z_ref + np.array([0.01, 0.0, 0.0])
     if param == "se3":  # off the plane, so that no floor residual is a signed zero
-        state = camera_pose(state, 0.5) @ ours.se3_exp(np.array([0.0, 0.003, 0.0, 0.002, 0.0, 0.001]))
+        state = camera_pose(state, 0.5) @ se3_exp(np.array([0.0, 0.003, 0.0, 0.002, 0.0, 0.001]))
     pred = z_ref.copy()
-    val, grad = ours.objective(ref, obs, param, state, pred, cfg)
-    Trel, B, b = ours.linearization(param, state, ref.T_wc, 0.5)
-    acc = ours.accumulate(ref, obs, Trel, B, b, cfg)
-    pv, pg, _ = ours.prior_terms(param, state, pred, cfg, 0.5)
+    val, grad = eq7.objective(ref, obs, param, state, pred, cfg)
+    Trel, B, b = eq7.linearization(param, state, ref.T_wc, 0.5)
+    acc = eq7.accumulate(ref, obs, Trel, B, b, cfg)
+    pv, pg, _ = eq7.prior_terms(param, state, pred, cfg, 0.5)
     scale = cfg.pixel_scale / len(obs.points)
     assert math.isclose(scale * acc.value + pv, val, rel_tol=1e-10)
     assert np.allclose(scale * acc.grad + pg, grad, rtol=1e-9, atol=1e-9), (scale * acc.grad + pg - grad)
-    q, dq = ours.transform_and_jacobian(param, state, ref.T_wc, obs.points, 0.5)
-    r = ours.residuals(ref, obs, q, dq, cfg.photo_threshold, cfg.geo_threshold)
+    q, dq = eq7.transform_and_jacobian(param, state, ref.T_wc, obs.points, 0.5)
+    r = eq7.residuals(ref, obs, q, dq, cfg.photo_threshold, cfg.geo_threshold)
     assert acc.counts[0] == r.photo_ok.sum() and acc.counts[1] == r.geo_ok.sum()
     assert 0 < r.photo_ok.sum() < r.geo_ok.sum()
     wp = cfg.photo_weight / np.maximum(np.abs(r.photo), cfg.irls_eps[0]) * r.photo_ok[:, None]
@@ -165,12 +166,12 @@ def test_planar_prior_gradient_equals_finite_differences():
     cfg = ours.TrackerConfig()
     pred = np.array([1.0, 2.0, 3.1])
     z = np.array([1.01, 1.98, -3.1])  # heading difference wraps
-    v, g, H = ours.prior_terms("planar", z, pred, cfg, 0.5)
+    v, g, H = eq7.prior_terms("planar", z, pred, cfg, 0.5)
     for c in range(3):
         d = np.zeros(3)
         d[c] = 1e-7
-        fd = (ours.prior_terms("planar", z + d, pred, cfg, 0.5)[0]
-              - ours.prior_terms("planar", z - d, pred, cfg, 0.5)[0]) / 2e-7
+        fd = (eq7.prior_terms("planar", z + d, pred, cfg, 0.5)[0]
+              - eq7.prior_terms("planar", z - d, pred, cfg, 0.5)[0]) / 2e-7
         assert math.isclose(fd, g[c], rel_tol=1e-5)
     assert v > 0 and np.allclose(np.diag(H), [1 / 0.01**2, 1 / 0.01**2, 1 / math.radians(3) ** 2])
 
@@ -205,8 +206,8 @@ def test_any_image_size_and_determinism():
     assert np.array_equal(outs[0], outs[1])
     loc, rot = _errors(outs[0], true)
     assert loc < 0.01 and rot < 0.5
-    assert ours.pixel_table(48, 64).shape == (100, 1000)
-    assert ours.pixel_table(48, 64).max() < 48 * 64
+    assert eq7.pixel_table(48, 64).shape == (100, 1000)
+    assert eq7.pixel_table(48, 64).max() < 48 * 64
 
 
 def test_misuse_raises_tracking_errors():
@@ -246,7 +247,7 @@ def test_heading_search_picks_the_offset_with_the_lowest_data_term():
     z0 = np.array([1.2, 1.0, 0.5])
     true = z0 + np.array([0.0, 0.0, math.radians(-10.0)])
     cfg = ours.make_config({})
-    ref = ours.prepare_reference(cam.render(z0), HALF_CAMERA, camera_pose(z0))
+    ref = eq7.prepare_reference(cam.render(z0), HALF_CAMERA, camera_pose(z0))
     idx = ours.gn_pixels(*HALF_CAMERA.shape, cfg.gn_pixels, 0)
     start = ours.yaw_search(ref, cam.render(true), z0, cfg, idx)
     assert start[:2] == pytest.approx(z0[:2])
