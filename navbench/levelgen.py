@@ -797,8 +797,9 @@ def _place_furniture(rng: np.random.Generator, rooms: list[_Rect], keepouts: lis
 
 
 def _check_name_seed(name: str, seed: int) -> None:
-    if not isinstance(name, str) or not name or any(c in name for c in "/\\ "):
-        raise ConfigError(f"level name must be a non-empty string without spaces or slashes, got {name!r}")
+    from navbench.names import check_name
+
+    check_name("level name", name, ConfigError)  # it becomes levels/NAME.json
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"seed must be a non-negative integer, got {seed!r}")
 
