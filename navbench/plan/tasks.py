@@ -286,8 +286,8 @@ def check_tasks_on_level(level, tasks, source: str = "<tasks>", radius: float = 
                     if not inside[i] else
                     f"({x:g}, {y:g}) is {clear[i]:.4f} m from a wall or obstacle of level "
                     f"{level.name!r}; tasks need {MIN_CLEARANCE:g} m")
-            raise TaskError(f"{source}: tasks[{i}].{name}_x, {name}_y: {what} "
-                            f"({len(bad)} {name}s like it)")
+            more = f" (and {len(bad) - 1} more {name}s)" if len(bad) > 1 else ""
+            raise TaskError(f"{source}: tasks[{i}].{name}_x, {name}_y: {what}{more}")
     graph = graph_for_level(level, radius)
     for i, t in enumerate(tasks):
         try:
