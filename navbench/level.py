@@ -475,21 +475,24 @@ def _is_convex(poly: np.ndarray) -> bool:
     return bool(np.all(cross > 1e-12) or np.all(cross < -1e-12))
 
 
-def load_level(path: str | Path, validate: bool = True) -> Level:
+def load_level(path: str | Path, validate: bool = True, name: str | None = None) -> Level:
     """Load and validate ``path``; raise :class:`LevelError` naming the file and the bad field.
 
-    Beyond the fields (:func:`level_from_dict`: types, finite numbers, size bounds, every point
-    inside the level box), the level's ``name`` must equal the file's stem, since the name
-    becomes output paths (``tasks/NAME-...``, ``results/levels/NAME.png``) and labels results:
-    a ``levels/a.json`` that calls itself ``house-2`` would overwrite and mislabel house-2's.
+    Beyond the fields (:func:`level_from_dict`: types, finite numbers, a safe ``name``, size
+    bounds, every point inside the level box), with ``name`` the level's own name must equal it.
+    The name becomes output paths (``tasks/NAME-...``, ``results/levels/NAME.png``) and labels
+    results, so a ``levels/a.json`` that calls itself ``house-2`` would overwrite and mislabel
+    house-2's: every loader of a file a user names passes its stem (:func:`resolve_level`), the
+    pipeline the name it looked up. (Cached generated levels are stored as ``level.json``.)
     With ``validate`` (the default) the level must also pass :func:`check_level` (the free
     space is one connected region at the generator's clearance); it costs ~10 ms for a
     benchmark house, so every load pays it and no invalid level reaches an episode.
     """
-    return read_level_file(path, validate)[0]
+    return read_level_file(path, validate, name)[0]
 
 
-def read_level_file(path: str | Path, validate: bool = True) -> tuple[Level, str]:
+def read_level_file(path: str | Path, validate: bool = True,
+                    name: str | None = None) -> tuple[Level, str]:
     """:func:`load_level` that also returns the file's text (whose sha256 keys the level), read
     once so that the text hashed is the text validated."""
     path = Path(path)
@@ -505,9 +508,9 @@ def read_level_file(path: str | Path, validate: bool = True) -> tuple[Level, str
     except OSError as e:
         raise LevelError(f"{path}: cannot read the level file ({e.strerror})") from None
     level = level_from_dict(doc, str(path))
-    if level.name != path.stem:
-        raise LevelError(f"{path}: name: {level.name!r} differs from the file name {path.stem!r} "
-                         f"(a level file must be named NAME.json after its name)")
+    if name is not None and level.name != name:
+        raise LevelError(f"{path}: name: the level calls itself {level.name!r} but is loaded as "
+                         f"{name!r} (a level file must be named NAME.json after its name)")
     if validate:
         check_level(level, str(path))
     return level, text
@@ -537,9 +540,10 @@ def level_path(name: str, root: str | Path = ".") -> Path:
 
 
 def resolve_level(name_or_path: str, root: str | Path = ".") -> Level:
-    """Load a level by name (from ``levels/``) or by path to a ``.json`` file."""
+    """Load a level by name (from ``levels/``) or by path to a ``.json`` file, whose level must
+    be named after the file (its stem); a name must be a safe name."""
     p = Path(name_or_path)
     if p.suffix == ".json" or p.is_file():
-        return load_level(p)
+        return load_level(p, name=p.stem)
     check_name("level name", name_or_path, LevelError)
-    return load_level(level_path(name_or_path, root))
+    return load_level(level_path(name_or_path, root), name=name_or_path)

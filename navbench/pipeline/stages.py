@@ -134,7 +134,7 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         def check() -> None:
             from navbench.level import read_level_file
 
-            _, text = read_level_file(committed)  # fields, name = stem, free space
+            _, text = read_level_file(committed, name=cfg.name)  # fields, name, free space
             if hashlib.sha256(text.encode()).hexdigest() != key:
                 raise LevelError(f"{committed}: changed while it was being read; run again")
 
@@ -171,7 +171,7 @@ def load_level_ref(ref: Ref):
     """The :class:`navbench.level.Level` of a make-level reference."""
     from navbench.level import load_level
 
-    return load_level(ref.path)
+    return load_level(ref.path, name=ref.name or None)
 
 
 # --------------------------------------------------------------------------- collect-views

@@ -335,7 +335,7 @@ def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out
         p = level_path(level_name_or_path, root)
     if not p.is_file():
         raise TaskError(f"{p}: no such level file")
-    level, text = read_level_file(p)
+    level, text = read_level_file(p, name=p.stem)  # its name becomes the task file's name
     tasks = sample_tasks(level, count, seed)
     out = save_tasks(Path(out_dir) if out_dir is not None else Path(root) / "tasks", level.name, tasks,
                      level_hash=level_sha256(text), seed=seed)

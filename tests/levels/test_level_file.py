@@ -80,13 +80,9 @@ def test_malformed_level_names_the_field(tmp_path, doc, mutation, field):
     (lambda d: d["walls"][0].update(thickness=30.0), "walls[0].thickness"),
     (lambda d: d.update(name="../../x"), "name: '../../x' is not a safe name"),
     (lambda d: d.update(name="/tmp/x"), "name: '/tmp/x' is not a safe name"),
-    (lambda d: d.update(name="other"), "name: 'other' differs from the file name 'lv'"),
 ])
 def test_level_out_of_bounds_or_misnamed(tmp_path, doc, mutation, field):
     d = _broken(doc, mutation)
-    d.setdefault("name", "lv")
-    if d["name"] == "m":
-        d["name"] = "lv"  # the file is lv.json
     with pytest.raises(LevelError) as e:
         load_level(_write(tmp_path, d))
     assert str(e.value).startswith(f"{tmp_path / 'lv.json'}: ")
@@ -122,3 +118,15 @@ def test_resolve_level_refuses_unsafe_names(tmp_path):
 
     with pytest.raises(LevelError, match="not a safe name"):
         resolve_level("../x", tmp_path)
+
+
+def test_a_level_loaded_by_file_must_be_named_after_it(tmp_path, doc):
+    from navbench.level import resolve_level
+
+    d = _broken(doc, lambda d: d.update(name="other"))
+    p = _write(tmp_path, d)
+    for load in (lambda: resolve_level(str(p)), lambda: load_level(p, name="lv")):
+        with pytest.raises(LevelError, match=r"lv.json: name: the level calls itself 'other' but is "
+                                             r"loaded as 'lv'"):
+            load()
+    assert load_level(p).name == "other"  # a cached level.json is loaded without a name

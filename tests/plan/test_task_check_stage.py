@@ -83,3 +83,17 @@ def test_committed_level_is_checked_and_unsafe_names_refused(ctx):
     (ctx.levels_dir / "tiny.json").write_text(json.dumps(doc))
     with pytest.raises(LevelError, match="connected components"):
         make_level_stage(ctx, LevelConfig("tiny"))
+
+
+def test_generated_level_is_loaded_from_the_cache_under_its_name(ctx, monkeypatch):
+    """A generated level is cached as ``level.json``: it loads under its own name."""
+    from navbench import levelgen
+    from navbench.level import load_level
+    from navbench.pipeline.stages import load_level_ref
+
+    monkeypatch.setattr(levelgen, "generate_level", lambda name, seed, *a, **k: tiny_level(name))
+    ref = make_level_stage(ctx, LevelConfig("made-up", seed=5))
+    assert ref.path.name == "level.json"
+    assert load_level_ref(ref).name == "made-up" == load_level(ref.path).name
+    tasks = sample_tasks_stage(ctx, ref, TasksConfig(2, 0))
+    assert read_task_file(tasks.path).level == "made-up"
