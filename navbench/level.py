@@ -25,12 +25,29 @@ from typing import Any
 
 import numpy as np
 
-from navbench.config import read_json
 from navbench.errors import LevelError
 from navbench.geometry import LEVEL_HEIGHT
+from navbench.names import check_name
 
 SCHEMA_VERSION = 1
 TEXTURE_KINDS = ("waves", "tiles")
+
+# Bounds of a level file. Rasters and voxel grids are sized from the level: the validation
+# raster has (size / 0.05 m)^2 cells, the true-map voxel grid (size / 0.057 m)^2 x 20, so a
+# 50 m level needs ~1 M raster cells and ~15 M voxels, and a 1e7 m level would need terabytes.
+# The benchmark's houses are about 11.4 m; HouseExpo footprints go up to 30 m.
+#: Largest width and depth (m) of a level.
+MAX_SIZE = 50.0
+#: Largest level height (m).
+MAX_HEIGHT = 10.0
+#: Largest wall thickness (m).
+MAX_WALL_THICKNESS = 1.0
+#: Most walls plus obstacles in a level.
+MAX_SOLIDS = 2000
+#: Most vertices of one obstacle polygon.
+MAX_POLYGON_VERTICES = 64
+#: Geometry may stick out of the box by this much (m): the file's 1e-6 rounding.
+BOX_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -242,13 +259,14 @@ def occupancy_raster(level: Level, resolution: float, z_low: float = 0.0,
         cand = np.all((pts >= lo) & (pts <= hi), axis=1)
         if not cand.any():
             continue
-        q = pts[cand]
         a = poly
         d = np.roll(poly, -1, axis=0) - a
-        rel = q[:, None, :] - a[None]
-        cross = d[None, :, 0] * rel[..., 1] - d[None, :, 1] * rel[..., 0]
         idx = np.flatnonzero(cand)
-        occ[idx[np.all(cross >= 0, axis=1)]] = True
+        for k in range(0, len(idx), 1 << 16):  # in blocks: (points x edges x 2) floats at once
+            block = idx[k:k + (1 << 16)]
+            rel = pts[block][:, None, :] - a[None]
+            cross = d[None, :, 0] * rel[..., 1] - d[None, :, 1] * rel[..., 0]
+            occ[block[np.all(cross >= 0, axis=1)]] = True
     return occ.reshape(nx, ny), xs, ys
 
 
@@ -306,6 +324,12 @@ def save_level(level: Level, path: str | Path) -> Path:
     return path
 
 
+def _short(x, limit: int = 60) -> str:
+    """``repr(x)`` cut to ``limit`` characters (error messages stay one short line)."""
+    r = repr(x)
+    return r if len(r) <= limit else r[: limit - 3] + "..."
+
+
 class _V:
     """Field validator that names the offending field in its errors."""
 
@@ -322,19 +346,37 @@ class _V:
             self.fail(f"{where}.{key}" if where else key, "missing field")
         return d[key]
 
-    def num(self, x, where: str, positive: bool = False, minimum: float | None = None) -> float:
-        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-            self.fail(where, f"expected a finite number, got {x!r}")
+    def num(self, x, where: str, positive: bool = False, minimum: float | None = None,
+            maximum: float | None = None) -> float:
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            self.fail(where, f"expected a finite number, got {_short(x)}")
+        try:
+            ok = math.isfinite(x)
+        except OverflowError:  # an integer too large for a float
+            ok = False
+        if not ok:
+            self.fail(where, f"expected a finite number, got {_short(x)}")
         if positive and x <= 0:
             self.fail(where, f"expected a positive number, got {x!r}")
         if minimum is not None and x < minimum:
             self.fail(where, f"expected a number >= {minimum}, got {x!r}")
+        if maximum is not None and x > maximum:
+            self.fail(where, f"expected a number <= {maximum:g}, got {_short(x)}")
         return float(x)
 
     def vec(self, x, n: int, where: str) -> tuple[float, ...]:
         if not isinstance(x, list) or len(x) != n:
-            self.fail(where, f"expected a list of {n} numbers, got {x!r}")
+            self.fail(where, f"expected a list of {n} numbers, got {_short(x)}")
         return tuple(self.num(c, f"{where}[{i}]") for i, c in enumerate(x))
+
+    def point(self, x, where: str, width: float, depth: float) -> tuple[float, float]:
+        """An ``[x, y]`` point inside the level box (within :data:`BOX_TOLERANCE`)."""
+        p = self.vec(x, 2, where)
+        t = BOX_TOLERANCE
+        if not (-t <= p[0] <= width + t and -t <= p[1] <= depth + t):
+            self.fail(where, f"point {_short(x)} lies outside the level box "
+                             f"[0, {width:g}] x [0, {depth:g}]")
+        return p
 
     def idx(self, x, n: int, where: str) -> int:
         if isinstance(x, bool) or not isinstance(x, int) or not 0 <= x < n:
@@ -353,9 +395,10 @@ def level_from_dict(doc: Any, source: str = "<level>") -> Level:
     name = v.get(doc, "name", "")
     if not isinstance(name, str) or not name:
         v.fail("name", "expected a non-empty string")
-    width = v.num(v.get(doc, "width", ""), "width", positive=True)
-    depth = v.num(v.get(doc, "depth", ""), "depth", positive=True)
-    height = v.num(doc.get("height", LEVEL_HEIGHT), "height", positive=True)
+    check_name(f"{source}: name:", name, LevelError)
+    width = v.num(v.get(doc, "width", ""), "width", positive=True, maximum=MAX_SIZE)
+    depth = v.num(v.get(doc, "depth", ""), "depth", positive=True, maximum=MAX_SIZE)
+    height = v.num(doc.get("height", LEVEL_HEIGHT), "height", positive=True, maximum=MAX_HEIGHT)
     seed = doc.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
         v.fail("seed", f"expected an integer or null, got {seed!r}")
@@ -386,26 +429,30 @@ def level_from_dict(doc: Any, source: str = "<level>") -> Level:
     raw_walls = v.get(doc, "walls", "")
     if not isinstance(raw_walls, list):
         v.fail("walls", "expected a list")
-    walls = []
-    for i, wd in enumerate(raw_walls):
-        w = f"walls[{i}]"
-        a = v.vec(v.get(wd, "a", w), 2, f"{w}.a")
-        b = v.vec(v.get(wd, "b", w), 2, f"{w}.b")
-        if math.dist(a, b) <= 1e-9:
-            v.fail(w, "wall has zero length")
-        walls.append(Wall(a, b, v.num(v.get(wd, "thickness", w), f"{w}.thickness", positive=True),
-                          v.idx(v.get(wd, "texture", w), T, f"{w}.texture")))
-
     raw_obs = v.get(doc, "obstacles", "")
     if not isinstance(raw_obs, list):
         v.fail("obstacles", "expected a list")
+    if len(raw_walls) + len(raw_obs) > MAX_SOLIDS:
+        v.fail("walls", f"{len(raw_walls)} walls and {len(raw_obs)} obstacles: at most "
+                        f"{MAX_SOLIDS} solids in all")
+    walls = []
+    for i, wd in enumerate(raw_walls):
+        w = f"walls[{i}]"
+        a = v.point(v.get(wd, "a", w), f"{w}.a", width, depth)
+        b = v.point(v.get(wd, "b", w), f"{w}.b", width, depth)
+        if math.dist(a, b) <= 1e-9:
+            v.fail(w, "wall has zero length")
+        walls.append(Wall(a, b, v.num(v.get(wd, "thickness", w), f"{w}.thickness", positive=True,
+                                      maximum=MAX_WALL_THICKNESS),
+                          v.idx(v.get(wd, "texture", w), T, f"{w}.texture")))
+
     obstacles = []
     for i, od in enumerate(raw_obs):
         w = f"obstacles[{i}]"
         poly = v.get(od, "polygon", w)
-        if not isinstance(poly, list) or len(poly) < 3:
-            v.fail(f"{w}.polygon", "expected a list of at least 3 [x, y] points")
-        pts = tuple(v.vec(p, 2, f"{w}.polygon[{k}]") for k, p in enumerate(poly))
+        if not isinstance(poly, list) or not 3 <= len(poly) <= MAX_POLYGON_VERTICES:
+            v.fail(f"{w}.polygon", f"expected a list of 3 to {MAX_POLYGON_VERTICES} [x, y] points")
+        pts = tuple(v.point(p, f"{w}.polygon[{k}]", width, depth) for k, p in enumerate(poly))
         if not _is_convex(np.asarray(pts)):
             v.fail(f"{w}.polygon", "polygon must be convex and non-degenerate")
         h = v.num(v.get(od, "height", w), f"{w}.height", positive=True)
@@ -428,10 +475,63 @@ def _is_convex(poly: np.ndarray) -> bool:
     return bool(np.all(cross > 1e-12) or np.all(cross < -1e-12))
 
 
-def load_level(path: str | Path) -> Level:
-    """Load and validate ``path``; raise :class:`LevelError` naming the bad field."""
+def load_level(path: str | Path, validate: bool = True, name: str | None = None) -> Level:
+    """Load and validate ``path``; raise :class:`LevelError` naming the file and the bad field.
+
+    Beyond the fields (:func:`level_from_dict`: types, finite numbers, a safe ``name``, size
+    bounds, every point inside the level box), with ``name`` the level's own name must equal it.
+    The name becomes output paths (``tasks/NAME-...``, ``results/levels/NAME.png``) and labels
+    results, so a ``levels/a.json`` that calls itself ``house-2`` would overwrite and mislabel
+    house-2's: every loader of a file a user names passes its stem (:func:`resolve_level`), the
+    pipeline the name it looked up. (Cached generated levels are stored as ``level.json``.)
+    With ``validate`` (the default) the level must also pass :func:`check_level` (the free
+    space is one connected region at the generator's clearance); it costs ~10 ms for a
+    benchmark house, so every load pays it and no invalid level reaches an episode.
+    """
+    return read_level_file(path, validate, name)[0]
+
+
+def read_level_file(path: str | Path, validate: bool = True,
+                    name: str | None = None) -> tuple[Level, str]:
+    """:func:`load_level` that also returns the file's text (whose sha256 keys the level), read
+    once so that the text hashed is the text validated."""
     path = Path(path)
-    return level_from_dict(read_json(path, LevelError, f"{path}: no such level file"), str(path))
+    if not path.is_file():
+        raise LevelError(f"{path}: no such level file")
+    try:
+        text = path.read_text()
+        doc = json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise LevelError(f"{path}: not valid JSON ({e})") from None
+    except RecursionError:
+        raise LevelError(f"{path}: not valid JSON (nested too deeply)") from None
+    except OSError as e:
+        raise LevelError(f"{path}: cannot read the level file ({e.strerror})") from None
+    level = level_from_dict(doc, str(path))
+    if name is not None and level.name != name:
+        raise LevelError(f"{path}: name: the level calls itself {level.name!r} but is loaded as "
+                         f"{name!r} (a level file must be named NAME.json after its name)")
+    if validate:
+        check_level(level, str(path))
+    return level, text
+
+
+def check_level(level: Level, source: str = "<level>") -> None:
+    """Raise :class:`LevelError` (prefixed by ``source``) unless ``level`` is usable.
+
+    The free-space checks of :func:`navbench.levelgen.validate_level`, which every generated
+    level passes (:func:`navbench.levelgen.validate_free_space`; the box is checked point by
+    point when the file is read): the free space at ``1.2 L`` clearance one 8-connected region
+    covering at least a fifth of the house, every room and door of ``meta`` reachable. A level
+    that fails them has tasks or views that could never be reached, and its scores would mean
+    nothing.
+    """
+    from navbench.levelgen import validate_free_space
+
+    try:
+        validate_free_space(level)
+    except LevelError as e:
+        raise LevelError(f"{source}: {e}") from None
 
 
 def level_path(name: str, root: str | Path = ".") -> Path:
@@ -440,8 +540,10 @@ def level_path(name: str, root: str | Path = ".") -> Path:
 
 
 def resolve_level(name_or_path: str, root: str | Path = ".") -> Level:
-    """Load a level by name (from ``levels/``) or by path to a ``.json`` file."""
+    """Load a level by name (from ``levels/``) or by path to a ``.json`` file, whose level must
+    be named after the file (its stem); a name must be a safe name."""
     p = Path(name_or_path)
     if p.suffix == ".json" or p.is_file():
-        return load_level(p)
-    return load_level(level_path(name_or_path, root))
+        return load_level(p, name=p.stem)
+    check_name("level name", name_or_path, LevelError)
+    return load_level(level_path(name_or_path, root), name=name_or_path)

@@ -28,6 +28,7 @@ import numpy as np
 from navbench.config import read_json
 from navbench.errors import TaskError
 from navbench.geometry import AGENT_LENGTH, AGENT_RADIUS
+from navbench.names import check_name
 
 TASK_FORMAT = "navbench-tasks"
 TASK_VERSION = 1
@@ -36,6 +37,15 @@ MIN_CLEARANCE = 1.2 * AGENT_LENGTH
 #: Start and target must be farther apart than this (m): 3 L.
 MIN_SEPARATION = 3.0 * AGENT_LENGTH
 _FIELDS = ("id", "start_x", "start_y", "start_heading", "target_x", "target_y", "optimal_length")
+#: Largest task id: ids are stored as 64-bit integers (database rows, episode seeds).
+MAX_TASK_ID = 2**63 - 1
+#: How far (m) a stored point may fall short of :data:`MIN_CLEARANCE`: files round coordinates
+#: to 1e-6 m, which moves a point by at most 7.1e-7 m.
+CLEARANCE_TOLERANCE = 1e-6
+#: How far (m) a stored ``optimal_length`` may differ from the recomputed exact shortest path:
+#: rounding both endpoints (<= 7.1e-7 m each; the length is 1-Lipschitz in each) and the length
+#: itself (<= 5e-7 m) changes it by under 2e-6 m; this allows five times that.
+LENGTH_TOLERANCE = 1e-5
 
 
 @dataclass(frozen=True)
@@ -171,9 +181,20 @@ def save_tasks(path, level_name: str, tasks, level_hash: str = "", seed: int | N
     return path
 
 
+def _short(x, limit: int = 60) -> str:
+    r = repr(x)
+    return r if len(r) <= limit else r[: limit - 3] + "..."
+
+
 def _num(x, where: str, source: str) -> float:
-    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-        raise TaskError(f"{source}: {where}: expected a finite number, got {x!r}")
+    ok = not isinstance(x, bool) and isinstance(x, (int, float))
+    if ok:
+        try:
+            ok = math.isfinite(x)
+        except OverflowError:  # an integer too large for a float
+            ok = False
+    if not ok:
+        raise TaskError(f"{source}: {where}: expected a finite number, got {_short(x)}")
     return float(x)
 
 
@@ -188,12 +209,18 @@ def task_set_from_dict(doc, source: str = "<tasks>") -> TaskSet:
     level = doc.get("level")
     if not isinstance(level, str) or not level:
         raise TaskError(f"{source}: level: expected a non-empty string")
+    check_name(f"{source}: level:", level, TaskError)
     lh = doc.get("level_sha256", "")
     if not isinstance(lh, str):
         raise TaskError(f"{source}: level_sha256: expected a string")
     seed = doc.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
-        raise TaskError(f"{source}: seed: expected an integer or null, got {seed!r}")
+        raise TaskError(f"{source}: seed: expected an integer or null, got {_short(seed)}")
+    if "agent_length" in doc:
+        al = _num(doc["agent_length"], "agent_length", source)
+        if abs(al - AGENT_LENGTH) > 1e-12:
+            raise TaskError(f"{source}: agent_length: tasks sampled for an agent of {al:g} m, "
+                            f"this navbench's agent is {AGENT_LENGTH:g} m")
     raw = doc.get("tasks")
     if not isinstance(raw, list):
         raise TaskError(f"{source}: tasks: expected a list")
@@ -207,8 +234,9 @@ def task_set_from_dict(doc, source: str = "<tasks>") -> TaskSet:
             if f not in t:
                 raise TaskError(f"{source}: {where}.{f}: missing field")
         tid = t["id"]
-        if isinstance(tid, bool) or not isinstance(tid, int) or tid < 0:
-            raise TaskError(f"{source}: {where}.id: expected a non-negative integer, got {tid!r}")
+        if isinstance(tid, bool) or not isinstance(tid, int) or not 0 <= tid <= MAX_TASK_ID:
+            raise TaskError(f"{source}: {where}.id: expected an integer in [0, 2**63 - 1], "
+                            f"got {_short(tid)}")
         if tid in ids:
             raise TaskError(f"{source}: {where}.id: duplicate task id {tid}")
         ids.add(tid)
@@ -218,9 +246,58 @@ def task_set_from_dict(doc, source: str = "<tasks>") -> TaskSet:
         tasks.append(Task(tid, (v["start_x"], v["start_y"], v["start_heading"]),
                           (v["target_x"], v["target_y"]), v["optimal_length"]))
     count = doc.get("count")
-    if count != len(tasks):
-        raise TaskError(f"{source}: count: says {count!r} but the file holds {len(tasks)} tasks")
+    if isinstance(count, bool) or not isinstance(count, int) or count != len(tasks):
+        raise TaskError(f"{source}: count: says {_short(count)} but the file holds {len(tasks)} tasks")
     return TaskSet(level, lh, seed, tuple(tasks))
+
+
+def check_tasks_on_level(level, tasks, source: str = "<tasks>", radius: float = AGENT_RADIUS) -> None:
+    """Raise :class:`TaskError` naming ``source: tasks[i].field`` unless every task is one that
+    :func:`sample_tasks` could have drawn on ``level``.
+
+    Each start and target must lie in the level box with clearance >= :data:`MIN_CLEARANCE`
+    (less :data:`CLEARANCE_TOLERANCE`) from every solid, and each ``optimal_length`` must equal
+    the exact shortest feasible path (:func:`navbench.plan.shortest.shortest_path`, recomputed
+    from the stored points) within :data:`LENGTH_TOLERANCE`; an unreachable target is an error
+    too. Otherwise an episode would start inside a wall, chase an unreachable target, or score
+    an SPL against a made-up ``l_i``. (Separation is not checked: it only shapes the sample.)
+    """
+    from navbench.level import distance_to_solids, prisms
+    from navbench.plan.shortest import graph_for_level, shortest_path
+
+    tasks = list(tasks)
+    if not tasks:
+        return
+    pr = prisms(level)
+    starts = np.array([t.start[:2] for t in tasks], float)
+    targets = np.array([t.target for t in tasks], float)
+    need = MIN_CLEARANCE - CLEARANCE_TOLERANCE
+    for name, pts in (("start", starts), ("target", targets)):
+        inside = ((pts[:, 0] >= need) & (pts[:, 0] <= level.width - need)
+                  & (pts[:, 1] >= need) & (pts[:, 1] <= level.depth - need))
+        clear = np.zeros(len(pts))
+        clear[inside] = distance_to_solids(pr, pts[inside])
+        bad = np.flatnonzero(~inside | (clear < need))
+        if len(bad):
+            i = int(bad[0])
+            x, y = pts[i]
+            what = (f"({x:g}, {y:g}) lies outside the level {level.name!r} "
+                    f"[0, {level.width:g}] x [0, {level.depth:g}] less the clearance"
+                    if not inside[i] else
+                    f"({x:g}, {y:g}) is {clear[i]:.4f} m from a wall or obstacle of level "
+                    f"{level.name!r}; tasks need {MIN_CLEARANCE:g} m")
+            more = f" (and {len(bad) - 1} more {name}s)" if len(bad) > 1 else ""
+            raise TaskError(f"{source}: tasks[{i}].{name}_x, {name}_y: {what}{more}")
+    graph = graph_for_level(level, radius)
+    for i, t in enumerate(tasks):
+        try:
+            length, _ = shortest_path(graph, starts[i], targets[i])
+        except TaskError as e:
+            raise TaskError(f"{source}: tasks[{i}]: target not reachable from the start in level "
+                            f"{level.name!r} ({e})") from None
+        if abs(length - t.optimal_length) > LENGTH_TOLERANCE:
+            raise TaskError(f"{source}: tasks[{i}].optimal_length: says {t.optimal_length:g} m but "
+                            f"the shortest path in level {level.name!r} is {length:.6f} m")
 
 
 def read_task_file(path) -> TaskSet:
@@ -250,19 +327,15 @@ def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out
     The level is resolved by name (``<root>/levels/<name>.json``) or path; its file text's
     sha256 goes into the task file. ``out_dir`` defaults to ``<root>/tasks``.
     """
-    from navbench.level import level_from_dict, level_path
+    from navbench.level import read_level_file, level_path
 
     p = Path(level_name_or_path)
     if not (p.suffix == ".json" or p.is_file()):
+        check_name("level name", level_name_or_path, TaskError)
         p = level_path(level_name_or_path, root)
     if not p.is_file():
         raise TaskError(f"{p}: no such level file")
-    text = p.read_text()
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise TaskError(f"{p}: not valid JSON ({e})") from None
-    level = level_from_dict(doc, str(p))
+    level, text = read_level_file(p, name=p.stem)  # its name becomes the task file's name
     tasks = sample_tasks(level, count, seed)
     out = save_tasks(Path(out_dir) if out_dir is not None else Path(root) / "tasks", level.name, tasks,
                      level_hash=level_sha256(text), seed=seed)

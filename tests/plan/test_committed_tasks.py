@@ -38,3 +38,12 @@ def test_task_file_matches_its_level(path):
 def test_one_task_file_per_level():
     levels = [read_task_file(p).level for p in TASK_FILES]
     assert len(levels) == len(set(levels))
+
+
+@pytest.mark.parametrize("path", TASK_FILES, ids=[p.stem for p in TASK_FILES])
+def test_committed_task_set_passes_the_level_check(path):
+    """What the pipeline checks before any episode: free points, exact optimal lengths."""
+    from navbench.plan.tasks import check_tasks_on_level
+
+    ts = read_task_file(path)
+    check_tasks_on_level(load_level(ROOT / "levels" / f"{ts.level}.json"), ts.tasks, str(path))

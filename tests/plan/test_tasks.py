@@ -79,6 +79,14 @@ def _write(tmp_path, doc):
     (lambda d: d.__setitem__("count", 5), "count"),
     (lambda d: d.__setitem__("version", 99), "version"),
     (lambda d: d.pop("level"), "level"),
+    (lambda d: d.__setitem__("level", "../../x"), "level"),
+    (lambda d: d["tasks"][1].__setitem__("id", 2 ** 70), "tasks[1].id"),
+    (lambda d: d["tasks"][1].__setitem__("id", 2 ** 63), "tasks[1].id"),
+    (lambda d: d["tasks"][0].__setitem__("start_y", 10 ** 400), "tasks[0].start_y"),
+    (lambda d: d["tasks"][0].__setitem__("optimal_length", float("nan")), "tasks[0].optimal_length"),
+    (lambda d: d.__setitem__("count", True), "count"),
+    (lambda d: d.__setitem__("count", 2.0), "count"),
+    (lambda d: d.__setitem__("agent_length", 0.5), "agent_length"),
 ])
 def test_malformed_files_name_the_field(tmp_path, mutate, field):
     tasks = [Task(0, (1.0, 1.0, 0.0), (2.0, 2.0), 1.5), Task(1, (2.0, 1.0, 0.5), (3.0, 2.5), 2.0)]
@@ -95,3 +103,49 @@ def test_missing_and_invalid_json(tmp_path):
     bad.write_text("{not json")
     with pytest.raises(TaskError, match="not valid JSON"):
         load_tasks(bad)
+
+
+def test_largest_task_id_is_accepted(tmp_path):
+    tasks = [Task(2 ** 63 - 1, (1.0, 1.0, 0.0), (2.0, 2.0), 1.5)]
+    assert load_tasks(_write(tmp_path, json.loads(dumps_tasks("lv", tasks, "", 0))))[0].id == 2 ** 63 - 1
+
+
+# ------------------------------------------------------------- a task set checked on its level
+
+def test_sampled_tasks_pass_the_level_check(door_tasks, tmp_path):
+    """Sampled tasks, stored (rounded to 1e-6) and read back, pass check_tasks_on_level."""
+    from navbench.plan.tasks import check_tasks_on_level
+
+    check_tasks_on_level(door_rooms(), door_tasks)
+    path = save_tasks(tmp_path, "door-rooms", door_tasks, seed=3)
+    check_tasks_on_level(door_rooms(), load_tasks(path), str(path))
+
+
+@pytest.mark.parametrize("change, field", [
+    (dict(target=(4.75, 0.75)), "tasks[2].target_x"),            # inside the low box
+    (dict(target=(2.95, 1.0)), "tasks[2].target_x"),             # inside the inner wall
+    (dict(start=(0.1, 2.0, 0.0)), "tasks[2].start_x"),           # closer than 1.2 L to a wall
+    (dict(start=(-3.0, 2.0, 0.0)), "tasks[2].start_x"),          # outside the level
+    (dict(target=(2.0, 99.0)), "tasks[2].target_x"),             # outside the level
+    (dict(optimal_length=1e9), "tasks[2].optimal_length"),
+    ("short", "tasks[2].optimal_length"),
+])
+def test_level_check_names_the_bad_task(door_tasks, change, field):
+    import dataclasses
+
+    from navbench.plan.tasks import LENGTH_TOLERANCE, check_tasks_on_level
+
+    tasks = list(door_tasks)
+    if change == "short":  # off by just more than the tolerance
+        change = dict(optimal_length=tasks[2].optimal_length - 3 * LENGTH_TOLERANCE)
+    tasks[2] = dataclasses.replace(tasks[2], **change)
+    with pytest.raises(TaskError, match=r"^src: " + field.replace("[", r"\[").replace("]", r"\]")):
+        check_tasks_on_level(door_rooms(), tasks, "src")
+
+
+def test_level_check_refuses_unreachable_targets():
+    """On two_rooms each room is free but the target room cannot be reached."""
+    from navbench.plan.tasks import check_tasks_on_level
+
+    with pytest.raises(TaskError, match=r"tasks\[0\]: target not reachable"):
+        check_tasks_on_level(two_rooms(), [Task(0, (1.0, 2.0, 0.0), (5.0, 2.0), 4.0)], "src")

@@ -63,7 +63,7 @@ def test_track_eval_cli_prints_json(tmp_path, level):
     from navbench.cli.main import app
     from navbench.level import save_level
 
-    path = save_level(level, tmp_path / "room.json")
+    path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     result = CliRunner().invoke(app, [
         "track-eval", str(path), "--trajectories", "2", "--steps", "4", "--json",
         "--estimators", "ours,emission,no-map,dynamics,gt",
@@ -96,7 +96,7 @@ def test_track_eval_rerun_stores_no_duplicates(tmp_path, level):
     from navbench.level import save_level
     from navbench.pipeline.db import ResultsDB
 
-    path = save_level(level, tmp_path / "room.json")
+    path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     url = f"sqlite:///{tmp_path / 'r.db'}"
     args = ["track-eval", str(path), "--trajectories", "2", "--steps", "3", "--json",
             "--estimators", "dynamics,gt", "--db", url]
@@ -113,7 +113,7 @@ def test_track_eval_cli_rejects_bad_options(tmp_path, level):
     from navbench.cli.main import app
     from navbench.level import save_level
 
-    path = save_level(level, tmp_path / "room.json")
+    path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     result = CliRunner().invoke(app, ["track-eval", str(path), "--trajectories", "1", "--steps", "2",
                                       "--estimators", "dynamics", "-o", "bad-option", "--json"])
     assert result.exit_code != 0

@@ -34,13 +34,16 @@ def _write(level, force: bool) -> tuple[Path, str]:
 
 
 def _summary(level, path: Path, what: str) -> str:
+    """One line of rich markup; the name and the path are escaped (user text is not markup)."""
+    from rich.markup import escape
+
     from navbench.levelgen import level_stats
 
     s = level_stats(level)
     rooms = f"{s['rooms']} rooms, " if s["rooms"] else ""
-    return (f"[bold]{level.name}[/bold]: {rooms}{s['walls']} walls, {s['obstacles']} obstacles, "
+    return (f"[bold]{escape(level.name)}[/bold]: {rooms}{s['walls']} walls, {s['obstacles']} obstacles, "
             f"free area {s['free_area_m2']:.1f} m² at 1.2 L clearance, "
-            f"{level.width:g} × {level.depth:g} m -> {path} ({what})")
+            f"{level.width:g} × {level.depth:g} m -> {escape(str(path))} ({what})")
 
 
 def register(app: typer.Typer) -> None:

@@ -36,4 +36,4 @@ def register(app: typer.Typer) -> None:
             fig.savefig(out, dpi=dpi)
         finally:
             plt.close(fig)
-        console.print(f"{level.name}: top view -> {out}")
+        console.print(f"{level.name}: top view -> {out}", markup=False, highlight=False)
