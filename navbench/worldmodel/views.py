@@ -579,8 +579,14 @@ def _open_listed(d: Path, row: tuple, list_path: Path):
     try:
         return Image.open(path), path, where
     except Exception as e:  # PIL raises OSError, SyntaxError, ValueError, DecompressionBombError
-        raise ArtifactError(f"{path}: not a readable image ({type(e).__name__}: {e}) "
+        raise ArtifactError(f"{path}: not a readable image ({_why(e, path)}) "
                             f"(listed at {where})") from None
+
+
+def _why(e: Exception, path: Path) -> str:
+    """``Type: message`` of a decoder error, without the path PIL repeats in it."""
+    msg = str(e).replace(f"'{path}'", "").replace(str(path), "").strip(" :")
+    return f"{type(e).__name__}: {msg}" if msg else type(e).__name__
 
 
 def _pixels(im, path: Path, where: str, mode: str | None = None) -> np.ndarray:
@@ -590,7 +596,7 @@ def _pixels(im, path: Path, where: str, mode: str | None = None) -> np.ndarray:
         with im:
             return np.asarray(im.convert(mode) if mode else im)
     except Exception as e:  # the decoder's errors: OSError, SyntaxError, ValueError, ...
-        raise ArtifactError(f"{path}: corrupt or truncated image ({type(e).__name__}: {e}) "
+        raise ArtifactError(f"{path}: corrupt or truncated image ({_why(e, path)}) "
                             f"(listed at {where})") from None
 
 
