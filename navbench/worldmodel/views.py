@@ -329,6 +329,11 @@ def load_views(path, mmap: bool = True) -> Views:
             except Exception as e:
                 raise ArtifactError(f"{f}: unreadable ({type(e).__name__}: {e})") from None
     elif path.is_file():
+        from navbench.worldmodel.memory import check_memory
+
+        # an .npz is read into memory whole (uncompressed: its size is the arrays' size)
+        check_memory(path.stat().st_size, f"{path}: reading this .npz views file (use a views "
+                     f"directory, which is memory-mapped, for large collections) would")
         try:
             with np.load(path, allow_pickle=False) as z:
                 missing = ({"header"} | set(_ARRAYS)) - set(z.files)
