@@ -186,10 +186,20 @@ class ViewsConfig:
     seed: int = 0
 
     def __post_init__(self):
-        if self.count < 1:
-            raise ConfigError(f"view count must be >= 1, got {self.count}")
+        if isinstance(self.count, bool) or not isinstance(self.count, int) or self.count < 1:
+            raise ConfigError(f"view count must be a whole number >= 1, got {self.count!r}")
         if self.camera not in ("half", "paper"):
             raise ConfigError(f"unknown camera {self.camera!r}; choose half or paper")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ConfigError(f"views seed must be a whole number >= 0, got {self.seed!r}")
+
+    def check_memory(self, what: str = "collect-views") -> None:
+        """Refuse (ConfigError naming ``what``) a collection whose images do not fit in the
+        available memory: :func:`navbench.worldmodel.views.check_views_memory`."""
+        from navbench.geometry import camera_by_name
+        from navbench.worldmodel.views import check_views_memory
+
+        check_views_memory(self.count, camera_by_name(self.camera), what)
 
 
 VIEWS_FILE = "views"   # a directory of .npy files (memory-mapped on load)
@@ -201,8 +211,12 @@ def collect_views_stage(ctx: StageContext, level: Ref, cfg: ViewsConfig) -> Ref:
 
     def compute(d: Path) -> None:
         from navbench.geometry import camera_by_name
-        from navbench.worldmodel.views import collect_views, save_views
+        from navbench.worldmodel.views import check_views_disk, collect_views, save_views
 
+        # before any rendering: the memory the views need (collect_views checks it again for
+        # library callers) and the disk space they are saved to
+        cfg.check_memory(f"collect-views ({level.name})")
+        check_views_disk(cfg.count, camera_by_name(cfg.camera), d, f"collect-views ({level.name})")
         update = ctx.progress(f"views {level.name} (seed {cfg.seed})", cfg.count)
         views = collect_views(load_level_ref(level), cfg.count, camera_by_name(cfg.camera), cfg.seed,
                               progress=update)

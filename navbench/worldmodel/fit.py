@@ -133,11 +133,53 @@ class FitConfig:
             raise ConfigError(f"fit: unknown optimizer {self.optimizer!r}; choose 'adam' or 'lazy-adam'")
         if self.sigma2_init <= 0 or self.free_space_weight < 0:
             raise ConfigError("fit: sigma2_init > 0 and free_space_weight >= 0 required")
+        gs = self.grid_shape
+        try:
+            ok = (not isinstance(gs, (str, bytes)) and len(gs) == 3
+                  and all(not isinstance(v, bool) and int(v) == v and v >= 2 for v in gs))
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise ConfigError(f"fit: grid_shape must be three whole numbers >= 2 (nx, ny, nz), got {gs!r}")
 
     @property
     def step(self) -> float:
         """Delta, the ray sample spacing (m)."""
         return self.max_range / self.n_samples
+
+
+#: Bytes per grid cell a fit holds: occupancy (4) and colour (12) float32, their gradients
+#: (16) and two Adam moments (32), the per-cell stamps of the lazy optimiser (8), and the
+#: float64 cell centres the box init compares (24, freed before the optimiser state exists):
+#: 72 at the peak, rounded up for the evaluation's voxelized true map.
+FIT_BYTES_PER_CELL = 80
+#: Bytes per batch ray a step holds (its samples are searched in slices of at most 256, each
+#: sample a trilinear stencil), and a fixed slack for torch, numba and the views' index arrays.
+FIT_BYTES_PER_RAY_SAMPLE = 64
+FIT_BASE_BYTES = 64 << 20
+
+
+def fit_memory_bytes(config: FitConfig) -> int:
+    """An upper estimate of the memory :func:`fit_map` needs for ``config``: the grids and their
+    optimiser state (:data:`FIT_BYTES_PER_CELL` per cell) plus one step's batch."""
+    cells = math.prod(int(v) for v in config.grid_shape)
+    rays = config.images_per_batch * config.pixels_per_image
+    return (cells * FIT_BYTES_PER_CELL
+            + rays * (FIT_BYTES_PER_RAY_SAMPLE * min(config.n_samples + 1, 256) + 1024)
+            + FIT_BASE_BYTES)
+
+
+def check_fit_memory(config: FitConfig, what: str = "fit") -> None:
+    """Refuse (:class:`ConfigError`) a fit whose grids or batches do not fit in the available
+    memory, before anything is allocated (a ``grid_shape`` of ``[5000, 5000, 5000]`` is 1.25e11
+    cells: a ``MemoryError`` or the kernel's OOM killer otherwise)."""
+    from navbench.worldmodel.memory import check_memory
+
+    shape = tuple(int(v) for v in config.grid_shape)
+    check_memory(fit_memory_bytes(config),
+                 f"{what}: grid_shape {list(shape)} ({math.prod(shape)} cells x "
+                 f"{FIT_BYTES_PER_CELL} bytes) and batches of "
+                 f"{config.images_per_batch} x {config.pixels_per_image} rays")
 
 
 def initial_grids(views: Views, config: FitConfig):
@@ -286,6 +328,7 @@ def fit_map(views: Views, config: FitConfig = FitConfig(),
 
     if len(views) == 0:
         raise ConfigError("fit: no views")
+    check_fit_memory(config)
     device = resolve_fit_device(config.device)
     if device != "cpu":
         return _fit_map_torch(views, config, device, progress, heldout, level)
@@ -480,6 +523,18 @@ def _fit_map_torch(views: Views, config: FitConfig, device: str, progress, heldo
     from navbench.worldmodel.diffrender import laplace_nll, render_rays_torch, stencil_mask, trilinear_t
 
     dev = torch.device("cpu" if device == "torch-cpu" else device)
+    if dev.type == "cuda":
+        # the grids, gradients and Adam moments live on the GPU (64 bytes per cell): check its
+        # free memory as fit_map checked the host's
+        from navbench.worldmodel.memory import format_bytes
+
+        free, _total = torch.cuda.mem_get_info(dev)
+        cells = math.prod(int(v) for v in config.grid_shape)
+        need = cells * 64 + (fit_memory_bytes(config) - cells * FIT_BYTES_PER_CELL)
+        if need > free:
+            raise ConfigError(f"fit: grid_shape {list(config.grid_shape)} ({cells} cells) needs "
+                              f"{format_bytes(need)} of GPU memory on {dev}, only "
+                              f"{format_bytes(free)} is free")
     spec, occ0, col0 = initial_grids(views, config)
     occ = torch.tensor(occ0, device=dev, requires_grad=True)
     col = torch.tensor(col0, device=dev, requires_grad=True)

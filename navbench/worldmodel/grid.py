@@ -264,6 +264,11 @@ def voxelize_level(level, spec: GridSpec | None = None, ramp: float | None = Non
     from navbench.worldmodel._voxelize import voxelize_kernel
 
     spec = spec or grid_for_level(level)
+    from navbench.worldmodel.memory import check_memory
+
+    # occ + col float32 (16 bytes per cell) before the kernel allocates them
+    cells = int(np.prod(spec.shape, dtype=np.float64))
+    check_memory(cells * 16 + (16 << 20), f"voxelize {level.name}: grid {list(spec.shape)} ({cells} cells x 16 bytes)")
     size = spec.size
     ramp = float(ramp if ramp is not None else size.max())
     pr = prisms(level)

@@ -15,6 +15,8 @@ def _collect(level: str, count: int | None, camera: str | None, seed: int | None
     prof = load_profile_with(profile, camera=camera)
     cfg = ViewsConfig(count if count is not None else prof.views, prof.camera,
                       seed if seed is not None else prof.views_seed)
+    # refuse a collection that cannot fit in memory before the level or anything else is written
+    cfg.check_memory("--count" if count is not None else f"profile {prof.name}: [views] count")
     with PipelineUI() as ui:
         ctx = make_context(ui, force={"collect-views"} if force else set())
         lv = make_level_stage(ctx, LevelConfig(level, prof.level_seed))
