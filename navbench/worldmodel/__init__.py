@@ -4,8 +4,10 @@
   occupancy slices, and :func:`voxelize_level` (the true geometry as a grid);
 * :mod:`.diffrender` — the differentiable renderer of eq. 1-2 in torch and ``laplace_nll``;
 * :mod:`.fastrender` — ``render_map``, the numba inference renderer (same images, no gradients);
-* :mod:`.views` — the pose-labelled RGB-D ``Views`` artifact, ``collect_views``, TUM I/O;
-* :mod:`.fit` — ``fit_map`` (eq. 3 by Adam) and ``evaluate_map``;
+* :mod:`.views` — the pose-labelled RGB-D ``Views`` artifact, ``collect_views``, save and load;
+* :mod:`.fit` — ``fit_map`` (eq. 3 by Adam; its CPU kernels in :mod:`.sparse_adam`);
+* :mod:`.evaluate` — ``evaluate_map`` (map quality on held-out views);
+* :mod:`.tum` — the TUM RGB-D layout (``export_views``, ``import_views``);
 * :mod:`.plots` — slice and isometric drawings into a given matplotlib axis.
 
 Only :mod:`.grid` is imported here; torch and numba load with the submodules that need them.

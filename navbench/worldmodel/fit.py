@@ -78,11 +78,12 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
-import numba as nb
 import numpy as np
 
 from navbench.errors import ConfigError
+from navbench.worldmodel.evaluate import evaluate_map
 from navbench.worldmodel.grid import PAPER_GRID_SHAPE, VoxelMap, grid_for_box
+from navbench.worldmodel.sparse_adam import _adam_rows, _scatter_mark, _zero_touched
 from navbench.worldmodel.views import Views
 
 
@@ -594,81 +595,3 @@ def _fit_map_torch(views: Views, config: FitConfig, device: str, progress, heldo
     return _finish_fit(views, config, spec, occ.detach().to("cpu").numpy().astype(np.float32),
                        col.detach().to("cpu").numpy().astype(np.float32), float(sigma2.detach()),
                        elapsed, log, heldout, level, where)
-
-
-@nb.njit(cache=True)
-def _scatter_mark(idx, w, g, grad, stamp, t, touched, count):
-    """``grad[idx] += w g`` (as :func:`~navbench.worldmodel.diffrender.scatter_add`), listing
-    each newly touched row once in ``touched`` (``stamp[row] == t`` marks it); returns the count."""
-    C = g.shape[1]
-    for q in range(idx.shape[0]):
-        for a in range(8):
-            r = idx[q, a]
-            for c in range(C):
-                grad[r, c] += w[q, a] * g[q, c]
-            if stamp[r] != t:
-                stamp[r] = t
-                touched[count] = r
-                count += 1
-    return count
-
-
-@nb.njit(cache=True, parallel=True)
-def _adam_rows(p, g, mv, touched, count, t, lr, b1, b2, eps):
-    """One Adam update of the rows ``touched[:count]`` of ``p``, zeroing ``g`` there.
-
-    The touched rows are distinct, so the rows update in parallel with no race (and the same
-    result as one thread)."""
-    bc1 = 1.0 - b1 ** t
-    bc2 = 1.0 - b2 ** t
-    C = p.shape[1]
-    for q in nb.prange(count):
-        r = touched[q]
-        for c in range(C):
-            gg = g[r, c]
-            m = b1 * mv[r, c, 0] + (1.0 - b1) * gg
-            v = b2 * mv[r, c, 1] + (1.0 - b2) * gg * gg
-            mv[r, c, 0] = m
-            mv[r, c, 1] = v
-            p[r, c] -= lr * (m / bc1) / (math.sqrt(v / bc2) + eps)
-            g[r, c] = 0.0
-
-
-@nb.njit(cache=True)
-def _zero_touched(g, touched, count):
-    for q in range(count):
-        for c in range(g.shape[1]):
-            g[touched[q], c] = 0.0
-
-
-def evaluate_map(vmap: VoxelMap, level, heldout: Views, step: float | None = None) -> dict:
-    """Render ``heldout`` views from ``vmap`` and compare; slice scores when ``level`` is given.
-
-    ``depth_mae_m``: mean |rendered - observed| z-depth (m) over pixels valid in both;
-    ``rgb_l1``: mean absolute colour error per channel (in [0, 1]) over the same pixels;
-    ``coverage``: fraction of observed-valid pixels the map renders a crossing for;
-    ``slice_precision`` / ``slice_recall``: the band occupancy slice vs the level's raster with
-    a one-cell tolerance (:func:`navbench.worldmodel.grid.slice_scores`).
-    """
-    from navbench.worldmodel.fastrender import FastRenderer
-
-    fr = FastRenderer(vmap, heldout.intrinsics, heldout.camera_height,
-                      max_range=float(vmap.meta.get("max_range", 20.0)), step=step)
-    abs_d, abs_c, n_both, n_obs = 0.0, 0.0, 0, 0
-    for k in range(len(heldout)):
-        frame = fr.render(heldout.poses[k])
-        obs_ok = np.asarray(heldout.valid[k])
-        both = obs_ok & frame.valid
-        dep = np.asarray(heldout.depth[k], np.float64)
-        abs_d += float(np.abs(frame.depth[both] - dep[both]).sum())
-        rgb = np.asarray(heldout.rgb[k], np.float32) / 255.0
-        abs_c += float(np.abs(frame.rgb[both] - rgb[both]).sum())
-        n_both += int(both.sum())
-        n_obs += int(obs_ok.sum())
-    out = {"depth_mae_m": abs_d / max(1, n_both), "rgb_l1": abs_c / max(1, 3 * n_both),
-           "coverage": n_both / max(1, n_obs), "heldout_views": len(heldout)}
-    if level is not None:
-        from navbench.worldmodel.grid import slice_scores
-
-        out["slice_precision"], out["slice_recall"] = slice_scores(vmap, level)
-    return out

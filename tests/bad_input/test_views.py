@@ -23,7 +23,7 @@ def make_tum(root: Path, intrinsics_json: bool = True) -> Path:
     """A valid TUM RGB-D directory: 3 frames of random colour, depth 1.5 m (16-bit PNG, 7500),
     planar camera-to-world poses 0.5 m above the floor."""
     from navbench.geometry import camera_pose
-    from navbench.worldmodel.views import _rot_to_quat
+    from navbench.worldmodel.tum import _rot_to_quat
 
     rng = np.random.default_rng(0)
     (root / "rgb").mkdir(parents=True)

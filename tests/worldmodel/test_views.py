@@ -10,9 +10,8 @@ import pytest
 from navbench.errors import ArtifactError
 from navbench.geometry import AGENT_RADIUS, Intrinsics, camera_pose
 from navbench.level import distance_to_solids
-from navbench.worldmodel.views import (
-    Views, collect_views, export_views, import_views, load_views, planar_from_camera, save_views,
-)
+from navbench.worldmodel.tum import export_views, import_views, planar_from_camera
+from navbench.worldmodel.views import Views, collect_views, load_views, save_views
 
 SMALL = Intrinsics(16, 12, 7.5, 7.5, 8.0, 6.0)
 

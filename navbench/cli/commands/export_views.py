@@ -17,7 +17,8 @@ def register(app: typer.Typer) -> None:
     ):
         """Write views as TUM RGB-D: rgb/, depth/ (16-bit, m x 5000), rgb.txt, depth.txt,
         groundtruth.txt (camera-to-world poses) and intrinsics.json."""
-        from navbench.worldmodel.views import export_views, load_views
+        from navbench.worldmodel.tum import export_views
+        from navbench.worldmodel.views import load_views
 
         views = load_views(views_path)
         export_views(views, directory)

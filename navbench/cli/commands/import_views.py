@@ -57,7 +57,8 @@ def register(app: typer.Typer) -> None:
         """Read a TUM RGB-D layout (poses are camera-to-world) into a views artifact."""
         from navbench.errors import ConfigError
         from navbench.geometry import Intrinsics
-        from navbench.worldmodel.views import check_intrinsics, first_rgb_size, import_views, save_views
+        from navbench.worldmodel.tum import first_rgb_size, import_views
+        from navbench.worldmodel.views import check_intrinsics, save_views
 
         _check_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt)
         if out.exists() or out.is_symlink():
