@@ -105,8 +105,8 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
     """
     from navbench.sim.dynamics import clip_control
 
-    drive = getattr(simulator, "enforce_direction_limit", None)
-    if drive is not None and bool(drive) != config.body_fixed_drive:
+    drive = simulator.enforce_direction_limit
+    if bool(drive) != config.body_fixed_drive:
         raise ConfigError(f"the simulator's enforce_direction_limit={bool(drive)} disagrees with "
                           f"EpisodeConfig.body_fixed_drive={config.body_fixed_drive}")
     pm = planner_map if planner_map is not None else cached_planner_map(occ2d, xs, ys, config.planner)
@@ -161,7 +161,7 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
         t0 = time.perf_counter()
         est = np.asarray(estimator.update(control, res.frame, true_pose=true_pose), dtype=np.float64).reshape(3).copy()
         est_ms = (time.perf_counter() - t0) * 1e3
-        lt = getattr(estimator, "last_timing", None) or {}
+        lt = estimator.last_timing
         render_ms = float(lt.get("render", 0.0))
 
         controls.append(control.as_array())
@@ -183,11 +183,11 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
             end_reason = "step-limit"
 
     return EpisodeRecord(
-        level=str(getattr(level, "name", level)),
+        level=level.name,
         task_id=int(task.id),
-        estimator=str(getattr(estimator, "name", type(estimator).__name__)),
-        noise=str(getattr(simulator, "noise_name", getattr(simulator, "noise", "unknown"))),
-        seed=int(getattr(simulator, "seed", -1)),
+        estimator=str(estimator.name),
+        noise=str(simulator.noise),
+        seed=int(simulator.seed),
         start=start,
         target=target,
         optimal_length=float(task.optimal_length),

@@ -21,6 +21,7 @@ import numpy as np
 from navbench.errors import ArtifactError, ConfigError
 from navbench.geometry import Intrinsics, camera_pose, wrap_angle
 
+from navbench.track.lie import planar_from_camera
 from navbench.worldmodel.views import (
     TUM_DEPTH_SCALE,
     Views,
@@ -61,17 +62,13 @@ def _quat_to_rot(q) -> np.ndarray:
     ])
 
 
-def planar_from_camera(T_wc: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Planar pose ``(x, y, theta)``, camera height and tilt (deg) of a camera-to-world ``T_wc``.
-
-    ``theta`` is the heading of the optical axis projected on the floor; the tilt is the angle
-    between the camera's ``y`` axis and world down (0 for a planar-mounted camera).
-    """
+def planar_height_tilt(T_wc: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Planar pose ``(x, y, theta)`` (:func:`navbench.track.lie.planar_from_camera`), camera height
+    and tilt (deg) of a camera-to-world ``T_wc``: the tilt is the angle between the camera's
+    ``y`` axis and world down (0 for a planar-mounted camera)."""
     R = T_wc[:3, :3]
-    fwd = R[:, 2]
-    theta = math.atan2(fwd[1], fwd[0])
     tilt = math.degrees(math.acos(float(np.clip(-R[2, 1], -1.0, 1.0))))
-    return np.array([T_wc[0, 3], T_wc[1, 3], float(wrap_angle(theta))]), float(T_wc[2, 3]), tilt
+    return planar_from_camera(T_wc), float(T_wc[2, 3]), tilt
 
 
 def export_views(views: Views, directory, dt: float = 0.05) -> Path:
@@ -301,7 +298,7 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
     (within ``max_dt`` s). Intrinsics: the argument (``intrinsics_source`` names where it came
     from in errors), else ``intrinsics.json``; camera height: the argument, else
     ``intrinsics.json``, else the median camera ``z``. The planar pose is
-    :func:`planar_from_camera` of each ground-truth pose; ``meta['max_tilt_deg']`` reports how
+    :func:`planar_height_tilt` of each ground-truth pose; ``meta['max_tilt_deg']`` reports how
     far the cameras are from planar. ``box``: ``intrinsics.json``'s, else the bounds of the
     camera centres and the back-projected depth points (every 8th pixel) plus ``box_margin``.
 
@@ -406,7 +403,7 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
         valid[n] = dep > 0
         depth[n] = np.where(valid[n], dep.astype(np.float64) / scale, np.inf)
         Ts[n] = gts[a_g[i]][1]
-    planar = [planar_from_camera(T) for T in Ts]
+    planar = [planar_height_tilt(T) for T in Ts]
     poses = np.array([p for p, _, _ in planar])
     if camera_height is None:
         camera_height = float(np.median([h for _, h, _ in planar]))

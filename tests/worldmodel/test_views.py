@@ -10,7 +10,7 @@ import pytest
 from navbench.errors import ArtifactError
 from navbench.geometry import AGENT_RADIUS, Intrinsics, camera_pose
 from navbench.level import distance_to_solids
-from navbench.worldmodel.tum import export_views, import_views, planar_from_camera
+from navbench.worldmodel.tum import export_views, import_views, planar_height_tilt
 from navbench.worldmodel.views import Views, collect_views, load_views, save_views
 
 SMALL = Intrinsics(16, 12, 7.5, 7.5, 8.0, 6.0)
@@ -97,7 +97,7 @@ def test_groundtruth_is_camera_to_world(tmp_path, views):
     t = np.array(line.split()[1:4], float)
     T = camera_pose(views.poses[0], views.camera_height)
     np.testing.assert_allclose(t, T[:3, 3], atol=1e-8)
-    pose, h, tilt = planar_from_camera(T)
+    pose, h, tilt = planar_height_tilt(T)
     np.testing.assert_allclose(pose, views.poses[0], atol=1e-12)
     assert h == pytest.approx(0.5) and tilt == pytest.approx(0.0, abs=1e-6)
 
