@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from navbench.errors import ArtifactError, ConfigError
-from navbench.geometry import Intrinsics, camera_pose, wrap_angle
+from navbench.geometry import Intrinsics, camera_pose
 
 from navbench.track.lie import planar_from_camera
 from navbench.worldmodel.views import (
