@@ -54,7 +54,8 @@ class SerialExecutor:
 def process_start_token(pid: int) -> str | None:
     """An id of the process ``pid`` that a later process with the same pid will not have.
 
-    On Linux: the boot id and the process's start time (clock ticks since boot, field 22 of
+    On Linux: ``BOOT/PIDNS:START``, the boot id, this process's PID namespace (a pid is only
+    meaningful within one) and the process's start time (clock ticks since boot, field 22 of
     ``/proc/PID/stat``); elsewhere (or when it cannot be read) ``None``.
     """
     try:
@@ -62,7 +63,8 @@ def process_start_token(pid: int) -> str | None:
             stat = f.read().decode(errors="replace")
         with open("/proc/sys/kernel/random/boot_id", encoding="ascii") as f:
             boot = f.read().strip()
-        return f"{boot}:{stat.rsplit(')', 1)[1].split()[19]}"
+        ns = os.readlink("/proc/self/ns/pid")
+        return f"{boot}/{ns}:{stat.rsplit(')', 1)[1].split()[19]}"
     except (OSError, IndexError, ValueError):
         return None
 
