@@ -10,7 +10,11 @@ Tables (SQLAlchemy 2 declarative models below):
 
 * ``runs`` -- one row per pipeline invocation: profile, command, resolved config (JSON) and its
   hash, navbench version, git commit (null outside a git checkout), host, CPU, start/finish
-  times (UTC) and status (``running`` -> ``done`` / ``failed`` / ``interrupted``).
+  times (UTC) and status (``running`` -> ``done`` / ``failed`` / ``interrupted``), and the
+  process that runs it (``pid`` and ``proc_start``, see :func:`process_start_token`). A run
+  whose process died without closing it (``kill -9``, power loss) becomes ``interrupted`` the
+  next time any command opens the database on its host (:meth:`ResultsDB.mark_dead_runs`);
+  its ``finished`` stays empty: when it died is unknown.
 * ``levels`` -- level name, content hash, meta; unique on (name, content_hash).
 * ``maps`` -- a fitted world model (unique map key) with its quality metrics.
 * ``task_sets`` / ``tasks`` -- the navigation tasks of a level (unique task set key; a task is
@@ -25,6 +29,12 @@ Duplicate rows are impossible: every ``add_*``/``record_*`` inserts with the dia
 ``ON CONFLICT DO NOTHING`` (SQLite, PostgreSQL; other dialects select the existing keys first,
 in the same transaction) and reports how many rows were new. The first stored value of a key
 therefore stays; a rerun skips the keys :meth:`ResultsDB.done_episode_keys` reports.
+
+Schema changes: ``SCHEMA_VERSION`` counts incompatible layouts (a database of another version
+is refused). Compatible additions are nullable columns that opening a database adds when
+missing (``_ADDED_COLUMNS``; older navbench versions ignore them). Tables and columns are
+created under a lock (SQLite ``BEGIN IMMEDIATE``, a PostgreSQL advisory lock), so commands
+that open a fresh database at the same moment do not trip over each other.
 """
 
 from __future__ import annotations
@@ -34,6 +44,7 @@ import os
 import platform
 import socket
 import subprocess
+import time
 from datetime import datetime, timezone
 from pathlib import Path
 from contextlib import contextmanager
@@ -52,6 +63,7 @@ from sqlalchemy import (
     UniqueConstraint,
     create_engine,
     event,
+    inspect,
     select,
     tuple_,
     update,
@@ -61,6 +73,7 @@ from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 from navbench.errors import DatabaseError
+from navbench.pipeline.executor import pid_alive, process_start_token
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
@@ -108,6 +121,15 @@ class Run(Base):
     started: Mapped[datetime] = mapped_column(DateTime(timezone=True))
     finished: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     status: Mapped[str] = mapped_column(String(16))
+    # added within schema version 1 (nullable, see _ADDED_COLUMNS): the process running it
+    pid: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    proc_start: Mapped[str | None] = mapped_column(String(128), nullable=True)
+
+
+#: Nullable columns added to a version-1 layout after it shipped: (table, column).
+_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"))
+#: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
+_PG_SCHEMA_LOCK = 0x6E617662656E6368
 
 
 class LevelRow(Base):
@@ -413,17 +435,54 @@ class ResultsDB:
         if self.engine.dialect.name == "sqlite":
             event.listen(self.engine, "connect", _sqlite_pragmas)
         try:
-            Base.metadata.create_all(self.engine)
+            if not self._schema_complete():
+                self._create_schema()
         except SQLAlchemyError as e:
             self.engine.dispose()
             raise DatabaseError(f"cannot open results database {self.display_url}: {_one_line(e)}") from None
         self._check_schema_version()
+        self.mark_dead_runs()
+
+    def _schema_complete(self) -> bool:
+        """Whether every table and added column exists (read only: no lock, no write)."""
+        insp = inspect(self.engine)
+        tables = set(insp.get_table_names())
+        if not set(Base.metadata.tables) <= tables:
+            return False
+        columns = {t: {c["name"] for c in insp.get_columns(t)} for t in {t for t, _ in _ADDED_COLUMNS}}
+        return all(c in columns[t] for t, c in _ADDED_COLUMNS)
+
+    def _create_schema(self, attempts: int = 5) -> None:
+        """Create the missing tables and added columns in one transaction holding the write lock.
+
+        Checking for a table and creating it are two statements; without the lock two commands
+        opening a fresh database together could both see it missing, and the second failed with
+        "table ... already exists". A dialect without a lock here retries on that error.
+        """
+        for attempt in range(attempts):
+            try:
+                with self.engine.connect() as conn:
+                    if conn.dialect.name == "sqlite":
+                        conn.exec_driver_sql("BEGIN IMMEDIATE")  # the write lock, before checking
+                    elif conn.dialect.name == "postgresql":
+                        conn.exec_driver_sql(f"SELECT pg_advisory_xact_lock({_PG_SCHEMA_LOCK})")
+                    Base.metadata.create_all(conn, checkfirst=True)
+                    _add_missing_columns(conn)
+                    conn.commit()
+                return
+            except SQLAlchemyError as e:
+                text = _one_line(e).lower()
+                if attempt + 1 == attempts or not ("already exists" in text or "duplicate" in text):
+                    raise
+                time.sleep(0.05 * (attempt + 1))
 
     def _check_schema_version(self) -> None:
         with self._begin() as conn:
-            self._insert_ignore(conn, MetaRow, [{"key": "schema_version", "value": str(SCHEMA_VERSION)}],
-                                ("key",))
             found = conn.execute(select(MetaRow.value).where(MetaRow.key == "schema_version")).scalar()
+            if found is None:
+                self._insert_ignore(conn, MetaRow, [{"key": "schema_version",
+                                                     "value": str(SCHEMA_VERSION)}], ("key",))
+                found = conn.execute(select(MetaRow.value).where(MetaRow.key == "schema_version")).scalar()
         if found != str(SCHEMA_VERSION):
             self.engine.dispose()
             raise DatabaseError(f"results database {self.display_url} has schema version {found}; "
@@ -520,13 +579,15 @@ class ResultsDB:
     # -- runs -----------------------------------------------------------------------------
 
     def start_run(self, profile: str, command: str, config: dict, config_hash: str) -> int:
-        """Record the start of a run (status ``running``); returns its id."""
+        """Record the start of a run (status ``running``) by this process; returns its id."""
         from navbench import __version__
 
+        pid = os.getpid()
         row = dict(
             profile=profile, command=command, config=_clean_json(config), config_hash=config_hash,
             navbench_version=__version__, git_commit=git_commit(), host=socket.gethostname(),
             cpu=cpu_description(), started=_utcnow(), finished=None, status="running",
+            pid=pid, proc_start=process_start_token(pid),
         )
         with self._begin() as conn:
             result = conn.execute(Run.__table__.insert().values(row))
@@ -541,6 +602,38 @@ class ResultsDB:
                 finished=_utcnow(), status=status)).rowcount
         if n == 0:
             raise DatabaseError(f"no run with id {run_id} in {self.display_url}")
+
+    def mark_dead_runs(self) -> list[int]:
+        """Mark ``interrupted`` the runs still ``running`` on this host whose process is gone
+        (or whose pid now belongs to a later process); returns their ids.
+
+        Runs of other hosts, of another PID namespace (a container) or boot of this host's
+        name, and runs recorded without a pid are left alone: their liveness cannot be judged
+        here. Best effort: a database this process cannot write to is left as it is.
+        """
+        here = process_start_token(os.getpid())
+        space = here.rsplit(":", 1)[0] if here else None
+        try:
+            with self._begin() as conn:
+                candidates = conn.execute(select(Run.id, Run.pid, Run.proc_start).where(
+                    Run.status == "running", Run.host == socket.gethostname(),
+                    Run.pid.is_not(None))).all()
+        except DatabaseError:
+            return []
+        dead = []
+        for run_id, pid, token in candidates:
+            if token and space and token.rsplit(":", 1)[0] != space:
+                continue  # another PID namespace or boot: its pid means nothing here
+            if not pid_alive(pid, token):
+                dead.append(int(run_id))
+        if dead:
+            try:
+                with self._begin() as conn:
+                    conn.execute(update(Run).where(Run.id.in_(dead), Run.status == "running")
+                                 .values(status="interrupted"))
+            except DatabaseError:
+                return []
+        return dead
 
     def latest_run_id(self, command: str | None = None) -> int | None:
         """Id of the most recently started run (optionally of one ``command``), else None."""
@@ -618,6 +711,34 @@ class ResultsDB:
                 stmt = select(EpisodeRow.cell_key, EpisodeRow.task_id, EpisodeRow.seed).where(
                     EpisodeRow.cell_key.in_(keys[i:i + 500]))
                 out.update((c, int(t), int(s)) for c, t, s in conn.execute(stmt))
+        return out
+
+    def stored_episode_keys(self, keys: Iterable[tuple[str, int, int]]) -> set[tuple[str, int, int]]:
+        """Which of these (cell_key, task_id, seed) triples are stored (a cheap check of a few
+        episodes, for example just before running them)."""
+        wanted = list(dict.fromkeys((str(c), int(t), int(s)) for c, t, s in keys))
+        out: set[tuple[str, int, int]] = set()
+        cols = (EpisodeRow.cell_key, EpisodeRow.task_id, EpisodeRow.seed)
+        with self._begin() as conn:
+            for i in range(0, len(wanted), 300):
+                stmt = select(*cols).where(tuple_(*cols).in_(wanted[i:i + 300]))
+                out.update((c, int(t), int(s)) for c, t, s in conn.execute(stmt))
+        return out
+
+    def episode_outcomes(self, cell_keys: list[str]) -> dict[tuple[str, int, int], dict]:
+        """The stored episodes of these cells: (cell_key, task_id, seed) -> ``traj_key``,
+        ``success``, ``spl_term``, ``path_length`` and ``steps`` (to check a trajectory against)."""
+        keys = list(dict.fromkeys(cell_keys))
+        out: dict[tuple[str, int, int], dict] = {}
+        e = EpisodeRow
+        with self._begin() as conn:
+            for i in range(0, len(keys), 500):
+                stmt = select(e.cell_key, e.task_id, e.seed, e.traj_key, e.success, e.spl_term,
+                              e.path_length, e.steps).where(e.cell_key.in_(keys[i:i + 500]))
+                for r in conn.execute(stmt):
+                    out[(r.cell_key, int(r.task_id), int(r.seed))] = {
+                        "traj_key": r.traj_key, "success": bool(r.success), "spl_term": r.spl_term,
+                        "path_length": r.path_length, "steps": int(r.steps)}
         return out
 
     def add_episodes(self, run_id: int, rows: list[dict]) -> int:
@@ -732,6 +853,16 @@ def _apply_filters(stmt, model, filters: dict):
         else:
             stmt = stmt.where(col == value)
     return stmt
+
+
+def _add_missing_columns(conn: Connection) -> None:
+    """``ALTER TABLE ... ADD COLUMN`` for each of ``_ADDED_COLUMNS`` the database lacks."""
+    insp = inspect(conn)
+    for table, name in _ADDED_COLUMNS:
+        if name in {c["name"] for c in insp.get_columns(table)}:
+            continue
+        col = Base.metadata.tables[table].c[name]
+        conn.exec_driver_sql(f"ALTER TABLE {table} ADD COLUMN {name} {col.type.compile(conn.dialect)}")
 
 
 def _sqlite_pragmas(dbapi_conn, _record) -> None:

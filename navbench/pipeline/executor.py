@@ -51,24 +51,119 @@ class SerialExecutor:
         return False
 
 
-def _ignore_sigint() -> None:
-    """Pool workers ignore Ctrl-C: the parent handles it and terminates them.
+def process_start_token(pid: int) -> str | None:
+    """An id of the process ``pid`` that a later process with the same pid will not have.
+
+    On Linux: ``BOOT/PIDNS:START``, the boot id, this process's PID namespace (a pid is only
+    meaningful within one) and the process's start time (clock ticks since boot, field 22 of
+    ``/proc/PID/stat``); elsewhere (or when it cannot be read) ``None``.
+    """
+    try:
+        with open(f"/proc/{int(pid)}/stat", "rb") as f:
+            stat = f.read().decode(errors="replace")
+        with open("/proc/sys/kernel/random/boot_id", encoding="ascii") as f:
+            boot = f.read().strip()
+        ns = os.readlink("/proc/self/ns/pid")
+        return f"{boot}/{ns}:{stat.rsplit(')', 1)[1].split()[19]}"
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def pid_alive(pid: int, start_token: str | None = None) -> bool:
+    """Whether process ``pid`` still runs (a zombie does not) and, when ``start_token`` (from
+    :func:`process_start_token`) is given and the current one can be read, is the same process
+    rather than a later one that reuses its pid."""
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass  # it exists, owned by another user
+    except (OSError, OverflowError, ValueError):
+        return False
+    try:
+        with open(f"/proc/{int(pid)}/stat", "rb") as f:
+            if f.read().decode(errors="replace").rsplit(")", 1)[1].split()[0] == "Z":
+                return False
+    except (OSError, IndexError):
+        pass
+    if start_token is not None:
+        now = process_start_token(pid)
+        if now is not None and now != start_token:
+            return False
+    return True
+
+
+def die_with_parent() -> bool:
+    """Ask Linux to SIGKILL this process when its parent dies (``PR_SET_PDEATHSIG``).
+
+    Returns False where that is unavailable (not Linux, no libc). A parent that died before
+    the call is not noticed: pool workers also run :func:`watch_parent`.
+    """
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) != 0:
+            return False
+    except (OSError, AttributeError):
+        return False
+    return True
+
+
+def watch_parent(pid: int, start_token: str | None, interval_s: float = 0.5) -> None:
+    """A daemon thread that ends this process (exit status 1) once process ``pid`` is gone.
+
+    The portable fallback to :func:`die_with_parent`, and the only guard when the process
+    that waits for our results is not our parent (forkserver workers are the forkserver's
+    children).
+    """
+    import threading
+    import time
+
+    def watch() -> None:
+        while pid_alive(pid, start_token):
+            time.sleep(interval_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="navbench-parent-watch", daemon=True).start()
+
+
+def _init_worker(parent_pid: int | None = None, parent_token: str | None = None) -> None:
+    """Pool worker set-up: ignore Ctrl-C, one thread per kernel, and die with the parent.
+
+    Pool workers ignore Ctrl-C: the parent handles it and terminates them. They die when the
+    command that started them dies, even by ``kill -9``: the kernel kills them with their
+    parent process (Linux), and a watchdog thread ends them once the command's process is
+    gone (everywhere; with the forkserver start method their parent is the forkserver).
 
     Each worker also runs its compiled kernels (numba) and torch on one thread unless the user
     set ``NUMBA_NUM_THREADS``/``OMP_NUM_THREADS``: the pool already has a process per core, and
     threads on top of that wait on each other's scheduler slices.
     """
-    import os
     import signal
     import sys
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent()
+    if parent_pid is not None:
+        watch_parent(parent_pid, parent_token)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if "numba" in sys.modules:  # already imported (fork start method): limit it directly
         import numba
 
         numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, int(os.environ["NUMBA_NUM_THREADS"])))
+
+
+#: Imported by the forkserver at its start: it dies with the command that started it.
+FORKSERVER_PRELOAD = "navbench.pipeline._forkserver_init"
 
 
 class LocalExecutor:
@@ -79,11 +174,16 @@ class LocalExecutor:
         if start_method is None:
             start_method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
         self.context = mp.get_context(start_method)
+        if start_method == "forkserver":
+            # the forkserver outlives pools (one per process); it must not outlive the command
+            self.context.set_forkserver_preload(["__main__", FORKSERVER_PRELOAD])
         self.pool: ProcessPoolExecutor | None = None
 
     def __enter__(self):
+        me = os.getpid()
         self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self.context,
-                                        initializer=_ignore_sigint)
+                                        initializer=_init_worker,
+                                        initargs=(me, process_start_token(me)))
         return self
 
     def __exit__(self, *exc):
@@ -113,6 +213,31 @@ class LocalExecutor:
                     pending.add(self.pool.submit(fn, nxt))
 
 
+#: Seconds to wait for a Ray cluster's address to accept a connection (``ray.init`` itself
+#: retries for minutes on an address where nothing listens).
+RAY_CONNECT_TIMEOUT_S = 5.0
+
+
+def check_reachable(address: str, timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> None:
+    """Raise :class:`ConfigError` naming ``address`` unless a TCP connection to it opens within
+    ``timeout_s``. ``host:port`` and ``ray://host:port`` are checked; ``auto``, ``local`` and
+    addresses without a port are left to Ray."""
+    import socket
+
+    hostport = address.split("://", 1)[1] if "://" in address else address
+    host, sep, port = hostport.rstrip("/").rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return
+    host = host.strip("[]")  # [::1]:6379
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout_s):
+            pass
+    except (OSError, ValueError, OverflowError) as e:
+        reason = "timed out" if isinstance(e, TimeoutError) else (e.strerror or str(e) or type(e).__name__)
+        raise ConfigError(f"cannot reach the Ray cluster at --address {address}: {reason} "
+                          f"(waited up to {timeout_s:g} s)") from None
+
+
 class RayExecutor:
     """Chunks as Ray tasks on the cluster at ``address`` (``None``: a local Ray instance)."""
 
@@ -134,10 +259,16 @@ class RayExecutor:
             kw: dict[str, Any] = {"ignore_reinit_error": True, "include_dashboard": False,
                                   "log_to_driver": False}
             if self.address:
+                check_reachable(self.address)
                 kw["address"] = self.address
             elif self.workers:
                 kw["num_cpus"] = int(self.workers)
-            self.ray.init(**kw)
+            try:
+                self.ray.init(**kw)
+            except (ConnectionError, TimeoutError, ValueError, RuntimeError) as e:
+                where = f"the Ray cluster at --address {self.address}" if self.address else "Ray"
+                first = (str(e).strip().splitlines() or [type(e).__name__])[0]
+                raise ConfigError(f"cannot connect to {where}: {first}") from None
             self._started = True
         if not self.workers:
             self.workers = max(1, int(self.ray.cluster_resources().get("CPU", 1)))

@@ -292,3 +292,104 @@ def test_schema_version_is_recorded_and_checked(tmp_path):
     d.close()
     with pytest.raises(DatabaseError, match="schema version 99"):
         ResultsDB(url)
+
+
+def _open_at_once(barrier, urls, errors) -> None:
+    """Child process: for each fresh database URL, wait for the others, then open it."""
+    for url in urls:
+        barrier.wait(timeout=60)
+        try:
+            ResultsDB(url).close()
+        except Exception as e:  # noqa: BLE001 - reported to the parent
+            errors.put(f"{url}: {type(e).__name__}: {e}")
+
+
+def test_concurrent_first_opens_of_a_fresh_database(tmp_path):
+    """Several commands opening one fresh SQLite file at the same moment all succeed (they
+    used to race between "is the table there?" and CREATE TABLE: "table runs already exists")."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")  # children start at once, navbench already imported
+    procs, rounds = 4, 12
+    urls = [f"sqlite:///{tmp_path / f'fresh{i}.db'}" for i in range(rounds)]
+    barrier, errors = ctx.Barrier(procs), ctx.Queue()
+    children = [ctx.Process(target=_open_at_once, args=(barrier, urls, errors)) for _ in range(procs)]
+    for c in children:
+        c.start()
+    for c in children:
+        c.join(timeout=120)
+    failures = []
+    while not errors.empty():
+        failures.append(errors.get())
+    assert failures == [] and [c.exitcode for c in children] == [0] * procs, failures
+    for url in urls:
+        d = ResultsDB(url)
+        assert set(d.table_counts()) >= {"runs", "episodes"}
+        d.close()
+
+
+def test_old_database_gains_the_run_process_columns(tmp_path):
+    """A database written before runs had pid/proc_start opens, keeps its rows and gets them."""
+    import sqlite3
+
+    path = tmp_path / "old.db"
+    ResultsDB(f"sqlite:///{path}").close()
+    with sqlite3.connect(path) as con:  # back to the layout as first shipped
+        con.execute("ALTER TABLE runs DROP COLUMN pid")
+        con.execute("ALTER TABLE runs DROP COLUMN proc_start")
+        con.execute("INSERT INTO runs (profile, command, config, config_hash, navbench_version, host, "
+                    "cpu, started, status) VALUES ('p', 'c', '{}', 'h', '0', 'elsewhere', 'cpu', "
+                    "'2026-01-01 00:00:00', 'running')")
+    d = ResultsDB(f"sqlite:///{path}")
+    runs = d.runs_frame()
+    assert list(runs["status"]) == ["running"] and runs["pid"].isna().all()
+    rid = d.start_run("p", "c", {}, "h")
+    assert int(d.runs_frame().set_index("id").loc[rid, "pid"]) == os.getpid()
+    d.close()
+
+
+def test_runs_of_dead_processes_become_interrupted(tmp_path):
+    """A run left ``running`` by a process that is gone (kill -9) is marked interrupted the next
+    time the database is opened; a live process's run and other hosts' runs are left alone."""
+    import socket
+    import subprocess
+    import sys
+
+    from sqlalchemy import update
+
+    from navbench.pipeline.db import Run
+
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    d = ResultsDB(url)
+    dead_id = d.start_run("p", "c", {}, "h")
+    live_id = d.start_run("p", "c", {}, "h")
+    other_id = d.start_run("p", "c", {}, "h")
+    reused_id = d.start_run("p", "c", {}, "h")
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    with d.engine.begin() as conn:
+        conn.execute(update(Run).where(Run.id == dead_id).values(pid=gone.pid, proc_start=None))
+        conn.execute(update(Run).where(Run.id == other_id).values(pid=gone.pid, host="other-host"))
+        # this process's pid, but recorded for a process that started at another time
+        conn.execute(update(Run).where(Run.id == reused_id).values(
+            proc_start=(d.runs_frame().set_index("id").loc[reused_id, "proc_start"] or "x:1") + "0"))
+    d.close()
+    d = ResultsDB(url)
+    status = d.runs_frame().set_index("id")["status"]
+    assert socket.gethostname() != "other-host"
+    assert status[dead_id] == "interrupted" and status[live_id] == "running"
+    assert status[other_id] == "running"
+    if d.runs_frame().set_index("id").loc[live_id, "proc_start"]:  # start times readable (Linux)
+        assert status[reused_id] == "interrupted"
+    d.close()
+
+
+def test_add_episodes_counts_rows_actually_inserted(db):
+    """Two writers of the same episodes: each learns how many rows were really its own."""
+    rid = db.start_run("p", "c", {}, "h")
+    assert db.add_episodes(rid, [episode(task_id=t) for t in (0, 1)]) == 2
+    assert db.add_episodes(rid, [episode(task_id=t) for t in (1, 2, 3)]) == 2
+    assert db.stored_episode_keys([("cellA", 1, 0), ("cellA", 9, 0), ("cellB", 0, 0)]) == {("cellA", 1, 0)}
+    out = db.episode_outcomes(["cellA"])
+    assert sorted(out) == [("cellA", t, 0) for t in range(4)]
+    assert out[("cellA", 2, 0)]["traj_key"] == "traj-cellA-2-0" and out[("cellA", 2, 0)]["steps"] == 40
