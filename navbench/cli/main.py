@@ -59,30 +59,47 @@ def _register_all() -> None:
 _register_all()
 
 
+def _click_types() -> tuple[tuple[type, ...], tuple[type, ...], tuple[type, ...]]:
+    """``(ClickException, Exit, Abort)`` classes of click and of typer's vendored copy of click
+    (typer >= 0.29 raises its own ``typer._click.exceptions`` classes, which are not click's)."""
+    import click
+
+    exc, exits, aborts = [click.ClickException], [typer.Exit, click.exceptions.Exit], [typer.Abort, click.Abort]
+    try:
+        from typer._click import exceptions as vendored
+
+        exc.append(vendored.ClickException)
+        for name, bucket in (("Exit", exits), ("Abort", aborts)):
+            if hasattr(vendored, name):
+                bucket.append(getattr(vendored, name))
+    except ImportError:  # an older typer that uses click itself
+        pass
+    return tuple(exc), tuple(exits), tuple(aborts)
+
+
 def main(argv: list[str] | None = None) -> None:
-    """Console entry point: run the app, turning NavbenchError into a one-line message."""
+    """Console entry point: run the app, turning NavbenchError into a one-line message and
+    usage errors into click's short usage message (exit 2)."""
     from navbench.errors import NavbenchError
 
+    click_errors, exits, aborts = _click_types()
     try:
         rv = app(args=argv, standalone_mode=False)
     except NavbenchError as e:
+        # typer.secho prints the text as is (no rich markup: user text may hold "[/x]")
         typer.secho(f"error: {e}", err=True, fg=typer.colors.RED)
         sys.exit(2)
     except KeyboardInterrupt:
         typer.secho("interrupted", err=True, fg=typer.colors.YELLOW)
         sys.exit(130)
-    except typer.Exit as e:
+    except exits as e:
         sys.exit(e.exit_code)
-    except typer.Abort:
+    except aborts:
         typer.secho("aborted", err=True)
         sys.exit(1)
-    except Exception as e:  # click usage errors come through here in standalone_mode=False
-        import click
-
-        if isinstance(e, click.ClickException):
-            e.show()
-            sys.exit(e.exit_code)
-        raise
+    except click_errors as e:  # usage errors (bad option, value out of range, missing argument)
+        e.show()
+        sys.exit(e.exit_code)
     # with standalone_mode=False, click returns typer.Exit(n)'s code (and 1 after Ctrl-C)
     if isinstance(rv, int) and rv:
         sys.exit(rv)

@@ -15,16 +15,29 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
                   [navigation.episode] (EpisodeConfig fields) and
                   [navigation.options.<estimator>] (estimator keyword arguments)
 
-Unknown keys are errors (a typo must not silently fall back to a default).
+Unknown keys are errors (a typo must not silently fall back to a default). Every field is
+checked for its type and range when the profile is loaded and again after CLI overrides, so a
+bad value fails before any stage runs, with a message naming the file (or option) and the field:
+``tiny.toml: [fit] steps: expected an integer in [1, 1000000], got 'fifty'``. Values are kept
+as written (an integer ``lr = 1`` stays an integer), so the cache keys of valid profiles do not
+change. Booleans are not integers here (TOML ``true`` for a count is an error).
+
+Sizes are bounded (generous limits, far above the paper's protocol) so that a typo cannot plan
+or allocate without end: at most :data:`MAX_EPISODES` episodes in a grid (levels x estimators x
+noise x tasks x seeds), and the per-field maxima below.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
+import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from navbench.errors import ConfigError
 
@@ -32,7 +45,279 @@ PROFILES_DIR = Path(__file__).resolve().parent.parent / "profiles"
 DEFAULT_PROFILE = "quick"
 CAMERA_NAMES = ("half", "paper")
 NOISE_NAMES = ("none", "low", "mid", "high", "tracking")
+MAP_SOURCES = ("fit", "true")
 
+# Limits (the paper: 5000 views, 10 000 fit steps, 200 tasks, 1 seed, 6 x 3 x 3 cells).
+MAX_VIEWS = 100_000          # views per collection
+MAX_FIT_STEPS = 1_000_000    # Adam steps of a map fit
+MAX_TASKS = 100_000          # tasks per level
+MAX_SEEDS = 10_000           # episode seeds per task
+MAX_WORKERS = 1024           # worker processes
+MAX_EPISODES = 10_000_000    # episodes in one grid
+MAX_SEED = 2**63 - 1         # any seed numpy accepts
+MAX_GRID_CELLS = 2**28       # cells of a fitted voxel grid (the paper's: 800 000)
+
+_SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+_SAFE_RULE = ("letters, digits, '_', '.', '-', starting with a letter or digit, at most 64 "
+              "characters, no '..'")
+
+
+def is_safe_name(name: Any) -> bool:
+    """Whether ``name`` matches ``^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$`` and holds no ``..``."""
+    return isinstance(name, str) and bool(_SAFE_NAME.fullmatch(name)) and ".." not in name
+
+
+def check_name(name: Any, what: str) -> str:
+    """``name`` if it is a safe name (it becomes part of file names: profile refs, levels/NAME.json);
+    else :class:`ConfigError` naming ``what``. Safe: letters, digits, ``_ . -``, starting with a
+    letter or digit, at most 64 characters, no ``..``."""
+    if not is_safe_name(name):
+        raise ConfigError(f"{what}: {name!r} is not a safe name ({_SAFE_RULE})")
+    return name
+
+
+# ------------------------------------------------------------------------ value checks
+
+class _Invalid(Exception):
+    """A value failed its check; the message says what was expected (no location)."""
+
+
+def _num(x: float) -> str:
+    return str(int(x)) if float(x).is_integer() else f"{x:g}"
+
+
+def _describe_range(lo, hi, open_lo: bool, open_hi: bool) -> str:
+    if lo is not None and hi is not None:
+        return f" in {'(' if open_lo else '['}{_num(lo)}, {_num(hi)}{')' if open_hi else ']'}"
+    if lo is not None:
+        return f" {'>' if open_lo else '>='} {_num(lo)}"
+    if hi is not None:
+        return f" {'<' if open_hi else '<='} {_num(hi)}"
+    return ""
+
+
+@dataclass(frozen=True)
+class Num:
+    """A number's type and range: ``kind`` "int" or "float" (a float field accepts integers)."""
+
+    kind: str = "float"
+    lo: float | None = None
+    hi: float | None = None
+    open_lo: bool = False
+    open_hi: bool = False
+
+    def check(self, v: Any) -> None:
+        what = ("an integer" if self.kind == "int" else "a number") + \
+            _describe_range(self.lo, self.hi, self.open_lo, self.open_hi)
+        ok_type = isinstance(v, int) if self.kind == "int" else isinstance(v, (int, float))
+        if isinstance(v, bool) or not ok_type or (isinstance(v, float) and not math.isfinite(v)):
+            raise _Invalid(f"expected {what}, got {v!r}")
+        if ((self.lo is not None and (v <= self.lo if self.open_lo else v < self.lo))
+                or (self.hi is not None and (v >= self.hi if self.open_hi else v > self.hi))):
+            raise _Invalid(f"expected {what}, got {v!r}")
+
+
+def _int(lo=0, hi=None) -> Num:
+    return Num("int", lo, hi)
+
+
+def _pos(kind="float") -> Num:
+    return Num(kind, 0, None, open_lo=True)
+
+
+_SEED = _int(0, MAX_SEED)
+
+
+def _check_str(v: Any, choices: tuple[str, ...] | None = None) -> None:
+    if not isinstance(v, str):
+        raise _Invalid(f"expected a string, got {v!r}")
+    if choices is not None and v not in choices:
+        raise _Invalid(f"unknown value {v!r}; choose one of {list(choices)}")
+
+
+def _check_names(v: Any, kind: str, known: Callable[[], list[str]] | None) -> None:
+    """A non-empty list of distinct names; each safe, and one of ``known()`` when given."""
+    if not isinstance(v, (list, tuple)) or not all(isinstance(x, str) for x in v):
+        raise _Invalid(f"expected a list of {kind} names, got {v!r}")
+    if not v:
+        raise _Invalid(f"expected at least one {kind} name, got an empty list")
+    names = known() if known is not None else None
+    seen = set()
+    for x in v:
+        if names is not None and x not in names:
+            raise _Invalid(f"unknown {kind} {x!r}; choose from {list(names)}")
+        if not is_safe_name(x):
+            raise _Invalid(f"{x!r} is not a safe {kind} name ({_SAFE_RULE})")
+        if x in seen:
+            raise _Invalid(f"{kind} {x!r} is listed twice")
+        seen.add(x)
+
+
+def _known_estimators() -> list[str]:
+    from navbench.track.registry import known_estimators
+
+    return known_estimators()
+
+
+# ------------------------------------------------------ dataclass-valued tables (fit, episode, options)
+
+#: Ranges of FitConfig fields (navbench.worldmodel.fit). ``steps`` and ``seed`` are the profile's
+#: own ``[fit] steps`` / ``[fit] seed``. Fields not listed: numbers >= 0, strings as FitConfig checks.
+FIT_RANGES: dict[str, Any] = {
+    "lr": _pos(), "sigma2_init": _pos(), "sigma2_lr": Num(lo=0), "min_sigma2": _pos(),
+    "images_per_batch": _int(1, 100_000), "pixels_per_image": _int(1, 1_000_000),
+    "grid_shape": _int(1, 65_536), "margin_z": Num(lo=0), "max_range": _pos(),
+    "n_samples": _int(1, 100_000), "tau": Num(lo=0, hi=1, open_lo=True, open_hi=True),
+    "init_free": Num(lo=0, hi=1), "init_solid": Num(lo=0, hi=1), "init_colour": Num(lo=0, hi=1),
+    "free_space_weight": Num(lo=0), "free_space_samples": _int(0, 1000),
+    "free_space_margin": Num(lo=0), "free_space_delta": Num(lo=0),
+    "threads": _int(1, MAX_WORKERS), "init": ("box", "empty"), "optimizer": ("adam", "lazy-adam"),
+}
+#: Ranges of EpisodeConfig fields (navbench.nav.episode) and of its planner/controller tables.
+EPISODE_RANGES: dict[str, Any] = {
+    "max_steps": _int(1, 1_000_000), "goal_tolerance": _pos(), "max_replans": _int(0, 1_000_000),
+    "planner.step": _pos(), "planner.goal_tolerance": _pos(), "planner.edge_samples": _int(1, 100_000),
+    "planner.max_expansions": _int(1, 100_000_000),
+    "controller.heading_threshold": _pos(), "controller.waypoint_tolerance": _pos(),
+    "controller.lookahead": _int(1, 100_000), "controller.max_turn": _pos(), "controller.max_step": _pos(),
+}
+#: Ranges of estimator options (TrackerConfig of ours/no-map, EmissionConfig of emission).
+OPTION_RANGES: dict[str, Any] = {
+    "optimizer": ("adam", "gauss-newton"), "param": ("planar", "se3"),
+    "adam_steps": _int(1, 100_000), "adam_pixels": _int(1, 1_000_000), "gn_iters": _int(1, 100_000),
+    "gn_geo_iters": _int(0, 100_000), "gn_pixels": _int(1, 1_000_000),
+    "yaw_search_pixels": _int(0, 1_000_000), "prior_sigma": _pos(), "off_plane_sigma": _pos(),
+    "steps": _int(1, 100_000), "pixels": _int(1, 1_000_000), "threads": _int(1, MAX_WORKERS),
+    "sigma2": _pos(), "default_sigma2": _pos(), "step": _pos(), "max_range": _pos(),
+    "pixel_scale": _pos(),
+}
+
+
+def _check_typed(v: Any, tp: Any, rng: Any) -> None:
+    """Check ``v`` against the resolved annotation ``tp`` (int, float, str, bool, fixed-length
+    tuples, ``X | None``) and the range ``rng`` (a :class:`Num`, or a tuple of string choices)."""
+    import types
+    import typing
+
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if v is None:
+            return
+        tp, origin = args[0], typing.get_origin(args[0])
+    if tp is bool:
+        if not isinstance(v, bool):
+            raise _Invalid(f"expected true or false, got {v!r}")
+    elif tp is str:
+        _check_str(v, rng if isinstance(rng, tuple) else None)
+    elif tp in (int, float):
+        (rng if isinstance(rng, Num) else Num(tp.__name__, lo=0)).check(v)
+    elif origin is tuple:
+        args = typing.get_args(tp)
+        n = len(args)
+        if not isinstance(v, (list, tuple)) or len(v) != n:
+            raise _Invalid(f"expected a list of {n} numbers, got {v!r}")
+        for i, (x, a) in enumerate(zip(v, args)):
+            try:
+                (rng if isinstance(rng, Num) else Num(a.__name__, lo=0)).check(x)
+            except _Invalid as e:
+                raise _Invalid(f"[{i}]: {e}") from None
+    else:
+        raise _Invalid(f"cannot be set from a profile (type {tp})")
+
+
+def _check_table(cls: type, values: Any, ranges: dict[str, Any], prefix: str = "") -> None:
+    """Check a TOML table against the fields of the dataclass ``cls``; nested dataclass fields
+    take a table of their own fields. Raises :class:`_Invalid` with the field's dotted path."""
+    import typing
+
+    if not isinstance(values, dict):
+        raise _Invalid(f"{prefix.rstrip('.') or 'value'}: expected a table, got {values!r}")
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    for k, v in values.items():
+        path = f"{prefix}{k}"
+        if k not in names:
+            raise _Invalid(f"{path}: unknown field; known: {names}")
+        tp = hints[k]
+        if dataclasses.is_dataclass(tp):
+            _check_table(tp, v, ranges, f"{path}.")
+            continue
+        try:
+            _check_typed(v, tp, ranges.get(path))
+        except _Invalid as e:
+            raise _Invalid(f"{path}: {e}") from None
+
+
+def _check_fit(fit: Any) -> None:
+    """``[fit]`` extras: FitConfig fields with their types and ranges (imports the fit module,
+    which brings numba; only when extras are given), then FitConfig's own checks."""
+    if not isinstance(fit, dict):
+        raise _Invalid(f"expected a table, got {fit!r}")
+    if not fit:
+        return
+    from navbench.worldmodel.fit import FitConfig
+
+    for own in ("steps", "seed"):
+        if own in fit:
+            raise _Invalid(f"{own}: set it as the profile's [fit] {own}")
+    _check_table(FitConfig, fit, FIT_RANGES)
+    if "grid_shape" in fit and math.prod(fit["grid_shape"]) > MAX_GRID_CELLS:
+        raise _Invalid(f"grid_shape: {math.prod(fit['grid_shape'])} cells; at most {MAX_GRID_CELLS}")
+    try:
+        FitConfig(**fit)
+    except ConfigError as e:
+        raise _Invalid(str(e).removeprefix("fit: ")) from None
+
+
+def _check_episode(episode: Any) -> None:
+    if not isinstance(episode, dict):
+        raise _Invalid(f"expected a table, got {episode!r}")
+    if not episode:
+        return
+    from navbench.nav.episode import EpisodeConfig
+
+    _check_table(EpisodeConfig, episode, EPISODE_RANGES)
+
+
+def _check_options(options: Any) -> None:
+    """``[navigation.options.<estimator>]``: known estimators, only the options their
+    constructors accept (with types and ranges); ``seed`` belongs to the pipeline."""
+    if not isinstance(options, dict):
+        raise _Invalid(f"expected a table of estimator tables, got {options!r}")
+    if not options:
+        return
+    from navbench.errors import NavbenchError
+    from navbench.track.registry import estimator_options_config
+
+    known = _known_estimators()
+    for est, opts in options.items():
+        section = f"[navigation.options.{est}]"
+        if est not in known:
+            raise _Invalid(f"{section}: unknown estimator {est!r}; choose from {known}")
+        if not isinstance(opts, dict):
+            raise _Invalid(f"{section}: expected a table of options, got {opts!r}")
+        for reserved in ("seed", "vmap", "intrinsics", "camera_height", "renderer"):
+            if reserved in opts:
+                raise _Invalid(f"{section} {reserved}: set by the pipeline for every episode "
+                               "(the estimator seed derives from the task and episode seed); remove it")
+        cfg_cls = estimator_options_config(est)
+        if cfg_cls is None:
+            if opts:
+                raise _Invalid(f"{section}: the {est!r} estimator takes no options, got {sorted(opts)}")
+            continue
+        try:
+            _check_table(cfg_cls, opts, OPTION_RANGES)
+            from navbench.track.base import config_from_options
+
+            config_from_options(cfg_cls(), opts, est)
+        except _Invalid as e:
+            raise _Invalid(f"{section} {e}") from None
+        except NavbenchError as e:
+            raise _Invalid(f"{section}: {e}") from None
+
+
+# ------------------------------------------------------------------------ the profile
 
 @dataclass(frozen=True)
 class Profile:
@@ -61,30 +346,91 @@ class Profile:
     estimator_options: dict = field(default_factory=dict)  # estimator -> keyword arguments
 
     def __post_init__(self):
-        validate(self)
+        validate(self, _WHERE.get())
 
 
-def validate(p: Profile) -> None:
-    """Raise :class:`ConfigError` for out-of-range fields."""
-    if not p.levels:
-        raise ConfigError(f"profile {p.name}: no levels")
-    if p.camera not in CAMERA_NAMES:
-        raise ConfigError(f"profile {p.name}: unknown camera {p.camera!r}; choose one of {CAMERA_NAMES}")
-    for n in p.noise:
-        if n not in NOISE_NAMES:
-            raise ConfigError(f"profile {p.name}: unknown noise level {n!r}; choose one of {NOISE_NAMES}")
-    for fname in ("views", "eval_views", "fit_steps", "tasks", "seeds"):
-        if int(getattr(p, fname)) < 1:
-            raise ConfigError(f"profile {p.name}: {fname} must be >= 1, got {getattr(p, fname)}")
-    if p.workers < 0:
-        raise ConfigError(f"profile {p.name}: workers must be >= 0")
+_WHERE: "contextvars.ContextVar[str | None]" = contextvars.ContextVar("profile_where", default=None)
+
+
+@contextlib.contextmanager
+def _validating_as(where: str):
+    """Name ``where`` (the file, or "command line") in the messages of Profile's own validation."""
+    token = _WHERE.set(where)
+    try:
+        yield
+    finally:
+        _WHERE.reset(token)
+
+
+#: Profile field -> (its place in the TOML file, its check). The check raises :class:`_Invalid`.
+FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
+    "name": ("name", lambda v: _check_names([v], "profile", None)),
+    "description": ("description", _check_str),
+    "levels": ("levels", lambda v: _check_names(v, "level", None)),
+    "level_seed": ("level_seed", _SEED.check),
+    "camera": ("[views] camera", lambda v: _check_str(v, CAMERA_NAMES)),
+    "views": ("[views] count", _int(1, MAX_VIEWS).check),
+    "views_seed": ("[views] seed", _SEED.check),
+    "eval_views": ("[views] eval_count", _int(1, MAX_VIEWS).check),
+    "eval_seed": ("[views] eval_seed", _SEED.check),
+    "fit_steps": ("[fit] steps", _int(1, MAX_FIT_STEPS).check),
+    "fit_seed": ("[fit] seed", _SEED.check),
+    "fit": ("[fit]", _check_fit),
+    "tasks": ("[tasks] count", _int(1, MAX_TASKS).check),
+    "tasks_seed": ("[tasks] seed", _SEED.check),
+    "estimators": ("[navigation] estimators", lambda v: _check_names(v, "estimator", _known_estimators)),
+    "noise": ("[navigation] noise", lambda v: _check_names(v, "noise level", lambda: list(NOISE_NAMES))),
+    "seeds": ("[navigation] seeds", _int(1, MAX_SEEDS).check),
+    "workers": ("[navigation] workers", _int(0, MAX_WORKERS).check),
+    "map_source": ("[navigation] map", lambda v: _check_str(v, MAP_SOURCES)),
+    "episode": ("[navigation.episode]", _check_episode),
+    "estimator_options": ("", _check_options),  # its messages name [navigation.options.<estimator>]
+}
+
+#: Fields holding a table: their messages continue the section label with the table's own field.
+_TABLE_FIELDS = ("fit", "episode", "estimator_options")
+
+#: The CLI option that overrides a profile field (named in messages about overridden values).
+OPTION_NAMES = {"levels": "LEVELS", "estimators": "--estimators", "noise": "--noise",
+                "tasks": "--tasks", "seeds": "--seeds", "workers": "--workers", "map_source": "--map",
+                "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera"}
+
+
+def check_field(fname: str, value: Any, where: str, label: str | None = None) -> None:
+    """Check one profile field; :class:`ConfigError` ``"<where>: <label>: <what was expected>"``."""
+    default_label, check = FIELDS[fname]
+    label = label or default_label
+    try:
+        check(value)
+    except _Invalid as e:
+        sep = " " if fname in _TABLE_FIELDS else ": "
+        raise ConfigError(f"{where}: {label}{sep}{e}".replace(":  ", ": ")) from None
+
+
+def validate(p: Profile, where: str | None = None) -> None:
+    """Raise :class:`ConfigError` for any field of the wrong type or out of range, and for
+    inconsistent fields (held-out views = training views, a grid beyond :data:`MAX_EPISODES`)."""
+    where = where or f"profile {p.name!r}"
+    for f in dataclasses.fields(Profile):
+        check_field(f.name, getattr(p, f.name), where)
     if p.eval_seed == p.views_seed:
-        raise ConfigError(f"profile {p.name}: eval_seed must differ from the views seed "
+        raise ConfigError(f"{where}: [views] eval_seed must differ from [views] seed "
                           "(the held-out views must not be the training views)")
-    if p.map_source not in ("fit", "true"):
-        raise ConfigError(f"profile {p.name}: map must be 'fit' or 'true', got {p.map_source!r}")
-    if not p.estimators:
-        raise ConfigError(f"profile {p.name}: no estimators")
+    check_grid_size(p, where)
+
+
+def grid_size(p: Profile) -> int:
+    """Episodes in the profile's grid: levels x estimators x noise x tasks x seeds."""
+    return len(dict.fromkeys(p.levels)) * len(p.estimators) * len(p.noise) * p.tasks * p.seeds
+
+
+def check_grid_size(p: Profile, where: str) -> None:
+    n = grid_size(p)
+    if n > MAX_EPISODES:
+        raise ConfigError(
+            f"{where}: the grid has {n:,} episodes ({len(dict.fromkeys(p.levels))} levels x "
+            f"{len(p.estimators)} estimators x {len(p.noise)} noise x {p.tasks} tasks x {p.seeds} "
+            f"seeds); at most {MAX_EPISODES:,} are allowed")
 
 
 _SECTIONS: dict[str, dict[str, str]] = {
@@ -100,7 +446,8 @@ _SECTIONS: dict[str, dict[str, str]] = {
 
 
 def profile_from_dict(doc: dict[str, Any], source: str = "<profile>") -> Profile:
-    """Build a :class:`Profile` from a parsed TOML document; unknown keys are errors."""
+    """Build a :class:`Profile` from a parsed TOML document; unknown keys and bad values are
+    :class:`ConfigError` naming ``source`` and the field."""
     kw: dict[str, Any] = {}
     fit_extra: dict[str, Any] = {}
     for key, value in doc.items():
@@ -120,16 +467,14 @@ def profile_from_dict(doc: dict[str, Any], source: str = "<profile>") -> Profile
             raise ConfigError(f"{source}: unknown key {key!r}")
     if "name" not in kw:
         raise ConfigError(f"{source}: missing 'name'")
+    kw["fit"] = fit_extra
+    for fname, value in kw.items():  # in file order, each message naming the file and field
+        check_field(fname, value, source)
     for k in ("levels", "estimators", "noise"):
         if k in kw:
-            if not isinstance(kw[k], list) or not all(isinstance(x, str) for x in kw[k]):
-                raise ConfigError(f"{source}: {k} must be a list of strings")
             kw[k] = tuple(kw[k])
-    kw["fit"] = fit_extra
-    try:
+    with _validating_as(source):
         return Profile(**kw)
-    except TypeError as e:
-        raise ConfigError(f"{source}: {e}") from None
 
 
 def available_profiles() -> list[str]:
@@ -145,23 +490,33 @@ def load_profile(name_or_path: str | None = None) -> Profile:
         path = p
     else:
         path = PROFILES_DIR / f"{name_or_path}.toml"
-        if not path.is_file():
-            raise ConfigError(f"unknown profile {name_or_path!r}; choose one of "
-                              f"{available_profiles()} or give a .toml path")
+        if not is_safe_name(name_or_path) or not path.is_file():
+            raise ConfigError(f"--profile: unknown profile {name_or_path!r}; choose one of "
+                              f"{available_profiles()} or give the path of a .toml file")
     try:
-        doc = tomllib.loads(path.read_text())
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML ({e})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not valid TOML (not UTF-8 text)") from None
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot read the profile ({e.strerror or e})") from None
     return profile_from_dict(doc, str(path))
 
 
 def override(profile: Profile, **changes: Any) -> Profile:
-    """A copy of ``profile`` with the non-``None`` ``changes`` applied (CLI options)."""
+    """A copy of ``profile`` with the non-``None`` ``changes`` applied (CLI options); each
+    changed value is checked and a bad one is reported under its option's name."""
     changes = {k: v for k, v in changes.items() if v is not None}
-    for k in ("levels", "estimators", "noise"):
-        if k in changes:
-            changes[k] = tuple(changes[k])
     unknown = set(changes) - {f.name for f in dataclasses.fields(Profile)}
     if unknown:
         raise ConfigError(f"unknown profile field(s): {sorted(unknown)}")
-    return dataclasses.replace(profile, **changes)
+    for k, v in changes.items():
+        check_field(k, v, "command line", OPTION_NAMES.get(k, k))
+    for k in ("levels", "estimators", "noise"):
+        if k in changes:
+            changes[k] = tuple(changes[k])
+    if not changes:
+        return profile
+    with _validating_as("command line"):
+        return dataclasses.replace(profile, **changes)

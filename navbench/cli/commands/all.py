@@ -7,11 +7,13 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
+from navbench.pipeline.profiles import MAX_WORKERS  # light
 
 
 def _print_scores(path: Path) -> None:
     import csv
 
+    from rich.markup import escape
     from rich.table import Table
 
     rows = list(csv.DictReader(open(path)))
@@ -25,7 +27,7 @@ def _print_scores(path: Path) -> None:
     for r in rows:
         cells = []
         for key, _ in cols:
-            v = r.get(key, "")
+            v = escape(r.get(key) or "")
             try:
                 cells.append(v if key in ("level", "estimator", "noise", "episodes") else f"{float(v):.{digits.get(key, 3)}f}")
             except ValueError:
@@ -38,7 +40,7 @@ def register(app: typer.Typer) -> None:
     @app.command("all")
     def all_(
         profile: str = typer.Option("quick", "--profile", help="Profile: quick, paper or a .toml path."),
-        workers: int = typer.Option(None, "--workers", min=0, help="Worker processes; 0 = CPU count."),
+        workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
         address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray)."),
         report_dir: Path = typer.Option(Path("results/report"), "--report", help="Where the report is published."),
@@ -52,13 +54,17 @@ def register(app: typer.Typer) -> None:
         """
         import time
 
-        from navbench.cli.commands._pipeline_ui import publish
+        from rich.markup import escape
+
+        from navbench.cli.commands._pipeline_ui import check_report_dir, protected_paths, publish
         from navbench.cli.commands.run_navigation import navigate, run_and_record
         from navbench.pipeline.profiles import load_profile, override
         from navbench.pipeline.stages import report_stage, score_stage
 
         t0 = time.perf_counter()
         prof = override(load_profile(profile), workers=workers)
+        protected = protected_paths(db)
+        check_report_dir(report_dir, "--report", protected)  # before hours of work, not after
 
         def body(ui, ctx, run_id):
             _, summary = navigate(ui, ctx, prof, run_id, executor, address)
@@ -68,7 +74,7 @@ def register(app: typer.Typer) -> None:
 
         summary, score, report = run_and_record(prof, "all", db, body)
         _print_scores(score.path)
-        index = publish(report.path.parent, report_dir) / "index.html"
-        console.print(f"profile [bold]{prof.name}[/bold]: {summary.stored} new episodes, "
-                      f"{summary.already_done + summary.stored}/{summary.total} stored; report {index}; "
-                      f"{time.perf_counter() - t0:.1f} s")
+        index = publish(report.path.parent, report_dir, protected, "--report") / "index.html"
+        console.print(f"profile [bold]{escape(prof.name)}[/bold]: {summary.stored} new episodes, "
+                      f"{summary.already_done + summary.stored}/{summary.total} stored; "
+                      f"report {escape(str(index))}; {time.perf_counter() - t0:.1f} s")

@@ -5,8 +5,10 @@ from __future__ import annotations
 import math
 
 import typer
+from rich.markup import escape
 
 from navbench.cli._common import console, err_console
+from navbench.pipeline.profiles import MAX_TASKS, MAX_WORKERS  # light
 
 
 def _fmt(value, unit: str = "") -> str:
@@ -23,7 +25,7 @@ def _print_table(result: dict) -> None:
     from navbench.bench import TARGETS, metric_keys
 
     targets = {t.key: t for t in TARGETS}
-    table = Table(title=f"navbench bench: {result['level']}, {result['map']}", title_justify="left")
+    table = Table(title=escape(f"navbench bench: {result['level']}, {result['map']}"), title_justify="left")
     for col, just in (("measurement", "left"), ("median", "right"), ("IQR", "right"),
                       ("min-max", "right"), ("n", "right"), ("paper (GPU)", "right"),
                       ("target", "left")):
@@ -55,7 +57,7 @@ def _print_table(result: dict) -> None:
     console.print(f"host {result['host']}: {result['cpu']}; torch {result['torch_version']} "
                   f"({result['torch_threads']} threads), numba {result['numba_version']} "
                   f"({result['numba_threads']} threads), navbench {result['navbench_version']}; "
-                  f"device {result['device']}")
+                  f"device {result['device']}", markup=False)
     cores = result.get("cpu_count") or 1
     load = max(result.get("load_avg_1m_start", 0.0), result.get("load_avg_1m_end", 0.0))
     busy = " -- the machine was BUSY (other processes competed for the CPUs)" if load > 0.75 * cores else ""
@@ -68,19 +70,19 @@ def _print_table(result: dict) -> None:
     shown = {"render_ms_paper", "fit_step_ms", "fit_10k_steps_s", "e2e_episodes_per_min"}
     for key, note in result["notes"].items():
         if key in shown or result[key] is None or note.startswith("quick"):
-            console.print(f"  [dim]{key}: {note}[/]")
+            console.print(f"  [dim]{escape(key)}: {escape(note)}[/]")
 
 
 def bench(
     quick: bool = typer.Option(False, "--quick", help="Fewer repeats and a smaller end-to-end run (< 60 s)."),
-    repeats: int = typer.Option(None, "--repeats", min=1,
+    repeats: int = typer.Option(None, "--repeats", min=1, max=10_000,
                                 help="Timed repeats per measurement (default: 5 with --quick, else 20)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of the table."),
     level: str = typer.Option("house-1", "--level", help="Level name (levels/NAME.json) or file."),
     seed: int = typer.Option(0, "--seed", help="Seed of every pose, pixel, walk and task drawn."),
-    workers: int = typer.Option(0, "--workers", min=0,
+    workers: int = typer.Option(0, "--workers", min=0, max=MAX_WORKERS,
                                 help="Local worker processes of the end-to-end run (0: CPU count)."),
-    e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0,
+    e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0, max=MAX_TASKS,
                                   help="Tasks of the end-to-end run, 0 skips it (default: 2 with --quick, else 6)."),
     cache: str = typer.Option("results/cache", "--cache", help="Stage cache to take a fitted map from."),
     store: bool = typer.Option(True, "--store/--no-store", help="Store the results in the results database."),
@@ -117,10 +119,10 @@ def bench(
     status = "failed"
     try:
         if as_json:
-            result = run_bench(config=cfg, progress=lambda s: err_console.print(f"[dim]bench: {s}[/]"))
+            result = run_bench(config=cfg, progress=lambda s: err_console.print(f"[dim]bench: {escape(s)}[/]"))
         else:
             with console.status("benchmarking") as st:
-                result = run_bench(config=cfg, progress=lambda s: st.update(f"benchmarking: {s}"))
+                result = run_bench(config=cfg, progress=lambda s: st.update(f"benchmarking: {escape(s)}"))
         if rdb is not None:
             rdb.add_bench_rows(run_id, bench_rows(result))
             result["run_id"] = run_id

@@ -23,13 +23,14 @@ def ls(
     root: str = typer.Option("results/cache", "--root", help="Cache directory."),
 ):
     """List cached artifacts: stage, key, size, creation time and input keys."""
+    from rich.markup import escape
     from rich.table import Table
 
     from navbench.pipeline.cache import ArtifactStore
 
     store = ArtifactStore(root)
     infos = store.ls(stage)
-    table = Table(title=f"{len(infos)} artifacts in {root}")
+    table = Table(title=f"{len(infos)} artifacts in {escape(root)}")
     for col in ("stage", "key", "size", "created", "inputs"):
         table.add_column(col, justify="right" if col == "size" else "left")
     episodes = [i for i in infos if i.stage == "episode"]
@@ -37,7 +38,8 @@ def ls(
         if i.stage == "episode" and stage is None:
             continue
         inputs = ", ".join(f"{k}={v[:8]}" for k, v in sorted(i.inputs.items()))
-        table.add_row(i.stage, i.key[:12], _human(i.size), i.created, inputs)
+        table.add_row(escape(i.stage), escape(i.key[:12]), _human(i.size), escape(str(i.created)),
+                      escape(inputs))
     if episodes and stage is None:
         table.add_row("episode", f"({len(episodes)} items)", _human(sum(e.size for e in episodes)),
                       episodes[-1].created, "use --stage episode")
@@ -63,7 +65,7 @@ def gc(
     removed = store.gc(keep_newest=keep_newest, dry_run=dry_run)
     verb = "would remove" if dry_run else "removed"
     for p in removed:
-        console.print(f"{verb} {p}")
+        console.print(f"{verb} {p}", markup=False)
     console.print(f"{verb} {len(removed)} entries")
 
 

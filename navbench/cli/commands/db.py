@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import typer
 
+from rich.markup import escape
+
 from navbench.cli._common import console
 
 db_app = typer.Typer(help="Inspect the results database.", no_args_is_help=True)
@@ -22,11 +24,11 @@ def info(db: str = _DB_OPTION):
     with ResultsDB(db, create=False) as rdb:
         counts = rdb.table_counts()
         url = rdb.display_url
-    table = Table(title=url)
+    table = Table(title=escape(url))
     table.add_column("table")
     table.add_column("rows", justify="right")
     for name, n in counts.items():
-        table.add_row(name, str(n))
+        table.add_row(escape(name), str(n))
     console.print(table)
 
 
@@ -51,9 +53,11 @@ def runs(
     for _, r in frame.iterrows():
         secs = "" if r["finished"] is None or r["finished"] != r["finished"] else \
             f"{(r['finished'] - r['started']).total_seconds():.0f}"
-        table.add_row(str(r["id"]), r["profile"], r["command"], r["status"],
-                      r["started"].strftime("%Y-%m-%d %H:%M:%S"), secs,
-                      str(int(per_run.get(r["id"], 0))), (r["git_commit"] or "")[:10], r["host"])
+        # profile, command line and host are user text: printed literally, never as markup
+        table.add_row(str(r["id"]), escape(str(r["profile"])), escape(str(r["command"])),
+                      escape(str(r["status"])), r["started"].strftime("%Y-%m-%d %H:%M:%S"), secs,
+                      str(int(per_run.get(r["id"], 0))), escape((r["git_commit"] or "")[:10]),
+                      escape(str(r["host"])))
     console.print(table)
 
 

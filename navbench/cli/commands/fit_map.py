@@ -7,13 +7,14 @@ import dataclasses
 import typer
 
 from navbench.cli._common import console, print_json
+from navbench.pipeline.profiles import MAX_FIT_STEPS  # light
 
 
 def register(app: typer.Typer) -> None:
     @app.command("fit-map")
     def fit_map(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
-        steps: int = typer.Option(None, "--steps", min=1, help="Adam steps [default: the profile's; "
+        steps: int = typer.Option(None, "--steps", min=1, max=MAX_FIT_STEPS, help="Adam steps [default: the profile's; "
                                   "quick 1500, paper 10000]."),
         views: str = typer.Option("auto", "--views", help="Training views: a collect-views key (>= 6 "
                                   "hex digits, see `navbench cache ls`) or 'auto' (collect with the "
@@ -55,12 +56,14 @@ def register(app: typer.Typer) -> None:
             return
         from rich.table import Table
 
-        t = Table(title=f"map {ref.key[:12]} of {level} ({'cached' if ref.cached else 'fitted'})")
+        from rich.markup import escape
+
+        t = Table(title=escape(f"map {ref.key[:12]} of {level} ({'cached' if ref.cached else 'fitted'})"))
         t.add_column("metric")
         t.add_column("value", justify="right")
         units = {"depth_mae_m": "m", "fit_seconds": "s", "rgb_l1": "(0-1)"}
         for k in (*MAP_METRIC_KEYS, "coverage", "heldout_views", "device"):
             v = out.get(k)
             t.add_row(f"{k} {units.get(k, '')}".strip(), "-" if v is None else
-                      (f"{v:.4f}" if isinstance(v, float) else str(v)))
+                      escape(f"{v:.4f}" if isinstance(v, float) else str(v)))
         console.print(t)

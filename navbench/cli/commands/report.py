@@ -5,6 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console
+from navbench.cli.commands.score import MAX_BOOT
 
 
 def report(
@@ -14,23 +15,29 @@ def report(
     cache: str = typer.Option("results/cache", "--cache",
                               help="Stage cache holding the trajectories and maps."),
     levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),
-    boot: int = typer.Option(2000, "--boot", min=1, help="Bootstrap resamples for the 95% intervals."),
-    trajectories: int = typer.Option(3, "--trajectories", min=0, help="Trajectories drawn per level."),
+    boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
+    trajectories: int = typer.Option(3, "--trajectories", min=0, max=1000, help="Trajectories drawn per level."),
     run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), or 'all'."),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
     Runs, SPL (Fig. 5a), scores, RMSE CDFs + runtime (Fig. 4), levels (Fig. 3), maps (Fig. 1).
     """
+    from rich.markup import escape
+
+    from navbench.cli.commands._pipeline_ui import check_report_dir, mark_report_dir, protected_paths
     from navbench.pipeline.db import ResultsDB
     from navbench.pipeline.report import build_report, store_loaders
 
+    # the report's files are written in place: only into a new, empty or earlier report folder
+    check_report_dir(out, "--out", protected_paths(db, cache, levels))
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
         index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
                              run=run)
-    console.print(f"report written to {index}")
+    mark_report_dir(index.parent)
+    console.print(f"report written to {escape(str(index))}")
 
 
 def register(app: typer.Typer) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
+from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
 def navigate(ui, ctx, prof, run_id: int, executor: str = "local", address: str | None = None,
@@ -77,9 +78,9 @@ def register(app: typer.Typer) -> None:
                                        "dynamics, gt, emission [default: the profile's]."),
         noise: str = typer.Option(None, "--noise", help="Comma-separated noise levels: low, mid, high "
                                   "(also none, tracking) [default: the profile's]."),
-        tasks: int = typer.Option(None, "--tasks", min=1, help="Tasks per level [default: the profile's]."),
-        seeds: int = typer.Option(None, "--seeds", min=1, help="Episode seeds per task [default: 1]."),
-        workers: int = typer.Option(None, "--workers", min=0, help="Worker processes (local) or CPUs "
+        tasks: int = typer.Option(None, "--tasks", min=1, max=MAX_TASKS, help="Tasks per level [default: the profile's]."),
+        seeds: int = typer.Option(None, "--seeds", min=1, max=MAX_SEEDS, help="Episode seeds per task [default: 1]."),
+        workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes (local) or CPUs "
                                     "(ray); 0 = CPU count, 1 = in this process."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
         address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray; "
@@ -101,8 +102,10 @@ def register(app: typer.Typer) -> None:
         """
         from navbench.pipeline.profiles import override, load_profile
 
+        # an option given but empty (--estimators ',,') is an error, not the profile's list
         prof = override(load_profile(profile), levels=levels or None,
-                        estimators=parse_list(estimators) or None, noise=parse_list(noise) or None,
+                        estimators=None if estimators is None else parse_list(estimators),
+                        noise=None if noise is None else parse_list(noise),
                         tasks=tasks, seeds=seeds, workers=workers, map_source=map_source)
 
         def body(ui, ctx, run_id):

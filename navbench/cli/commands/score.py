@@ -8,6 +8,9 @@ import typer
 
 from navbench.cli._common import console, parse_list
 
+#: bootstrap resamples allocate resamples x episodes numbers; 100 000 is 50x the default
+MAX_BOOT = 100_000
+
 
 class Format(str, Enum):
     table = "table"
@@ -26,7 +29,7 @@ def score(
                             "episodes) or 'all' (every stored episode, once per cell/task/seed)."),
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
-    boot: int = typer.Option(2000, "--boot", min=1, help="Bootstrap resamples for the 95% intervals."),
+    boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                            help="Results database URL [default: sqlite:///results/navbench.db]."),
@@ -38,6 +41,8 @@ def score(
     """
     import sys
 
+    from rich.markup import escape
+
     from navbench.pipeline.db import ResultsDB
     from navbench.cli._common import err_console
     from navbench.pipeline.score import mixed_setups_warning, score_table, table_records
@@ -46,7 +51,7 @@ def score(
         table = score_table(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
     warning = mixed_setups_warning(table)
     if warning:
-        err_console.print(f"[yellow]warning:[/] {warning}", markup=True)
+        err_console.print(f"[yellow]warning:[/] {escape(warning)}", markup=True)
     if fmt is Format.json:
         from navbench.cli._common import print_json
 
@@ -57,7 +62,8 @@ def score(
         return
     from rich.table import Table
 
-    out = Table(title=f"navbench score ({run}): mean or median [95% bootstrap interval]")
+    # level, estimator and noise names come from the database: printed literally, never as markup
+    out = Table(title=f"navbench score ({escape(run)}): mean or median [95% bootstrap interval]")
     for col, just in (("level", "left"), ("estimator", "left"), ("noise", "left"), ("n", "right"),
                       ("success", "right"), ("SPL", "right"), ("loc RMSE m", "right"),
                       ("rot RMSE deg", "right"), ("step ms", "right"), ("Hz", "right")):
@@ -68,7 +74,8 @@ def score(
             out.add_section()
         previous = r["level"]
         hz = "-" if r["step_hz"] != r["step_hz"] else f"{r['step_hz']:.1f}"
-        out.add_row(r["level"], r["estimator"], r["noise"], str(r["episodes"]),
+        out.add_row(escape(str(r["level"])), escape(str(r["estimator"])), escape(str(r["noise"])),
+                    str(r["episodes"]),
                     _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
                     _fmt(r["spl"], r["spl_ci_low"], r["spl_ci_high"], 2),
                     _fmt(r["loc_rmse_m"], r["loc_rmse_m_ci_low"], r["loc_rmse_m_ci_high"], 3),

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import typer
+from rich.markup import escape
 
 from navbench.cli._common import console, parse_list, print_json
+from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS  # light
 
 
 def _parse_options(items: list[str]) -> dict[str, dict]:
@@ -34,11 +36,11 @@ def register(app: typer.Typer) -> None:
     @app.command("track-eval")
     def track_eval(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
-        trajectories: int = typer.Option(30, "--trajectories", min=1, help="Recorded trajectories."),
-        seeds: int = typer.Option(1, "--seeds", min=1, help="Estimator seeds per trajectory."),
+        trajectories: int = typer.Option(30, "--trajectories", min=1, max=MAX_TASKS, help="Recorded trajectories."),
+        seeds: int = typer.Option(1, "--seeds", min=1, max=MAX_SEEDS, help="Estimator seeds per trajectory."),
         estimators: str = typer.Option("ours,emission,no-map,dynamics,gt", "--estimators",
                                        help="Comma-separated estimator names."),
-        steps: int = typer.Option(100, "--steps", min=1, help="Controls per trajectory."),
+        steps: int = typer.Option(100, "--steps", min=1, max=1_000_000, help="Controls per trajectory."),
         camera: str = typer.Option("half", "--camera", help="half or paper."),
         map_: str = typer.Option("true", "--map", help="A map file (save_map format) or 'true' for the "
                                  "voxelised true geometry (an upper bound)."),
@@ -46,7 +48,7 @@ def register(app: typer.Typer) -> None:
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
                                          "emission.steps=100."),
-        emission_trajectories: int = typer.Option(10, "--emission-trajectories", min=1,
+        emission_trajectories: int = typer.Option(10, "--emission-trajectories", min=1, max=MAX_TASKS,
                                                   help="Replay the slow emission tracker on the first "
                                                   "this-many trajectories only."),
         paper_budget: bool = typer.Option(False, "--paper-budget", help="Emission tracker with the "
@@ -74,10 +76,12 @@ def register(app: typer.Typer) -> None:
             summarize,
         )
 
-        lvl = resolve_level(level)
         names = tuple(parse_list(estimators))
+        parsed_options = _parse_options(option)
+        _check_estimators(names, parsed_options)  # before the level is built or anything recorded
+        lvl = resolve_level(level)
         opts = {"emission": {} if paper_budget else dict(STUDY_EMISSION_OPTIONS)}
-        for name, o in _parse_options(option).items():
+        for name, o in parsed_options.items():
             opts.setdefault(name, {}).update(o)
         cfg = TrackingStudyConfig(trajectories=trajectories, seeds=seeds, steps=steps,
                                   estimators=names, camera=camera, seed=seed,
@@ -91,7 +95,7 @@ def register(app: typer.Typer) -> None:
             from rich.progress import Progress
 
             with Progress(console=console, transient=True) as bar:
-                task = bar.add_task(f"tracking on {lvl.name}", total=trajectories)
+                task = bar.add_task(f"tracking on {escape(lvl.name)}", total=trajectories)
                 res = run_tracking_study(lvl, vmap, cfg,
                                          progress=lambda d, n: bar.update(task, completed=d))
         summary = summarize(res)
@@ -105,19 +109,35 @@ def register(app: typer.Typer) -> None:
             return
         from rich.table import Table
 
-        t = Table(title=f"tracking on {lvl.name} ({trajectories} x {steps} steps, map {map_}, "
-                        f"camera {camera})")
+        t = Table(title=escape(f"tracking on {lvl.name} ({trajectories} x {steps} steps, map {map_}, "
+                               f"camera {camera})"))
         for col in ("estimator", "runs", "loc RMSE median (m)", "loc RMSE p99 (m)",
                     "< 0.1 m", "rot RMSE median (deg)", "step median (ms)"):
             t.add_column(col, justify="left" if col == "estimator" else "right")
         for name, s in summary.items():
-            t.add_row(name, str(s["runs"]), f"{s['loc_rmse_m_median']:.4f}", f"{s['loc_rmse_m_p99']:.4f}",
+            t.add_row(escape(name), str(s["runs"]), f"{s['loc_rmse_m_median']:.4f}", f"{s['loc_rmse_m_p99']:.4f}",
                       f"{100 * s['frac_loc_rmse_below_0_1m']:.0f} %", f"{s['rot_rmse_deg_median']:.3f}",
                       f"{s['step_ms_median']:.2f}")
         console.print(t)
         if stored:
             console.print(f"stored {stored['rows']} new tracking rows (run {stored['run_id']}, "
-                          f"study {stored['study_key'][:12]}) in {stored['db']}")
+                          f"study {stored['study_key'][:12]}) in {stored['db']}", markup=False)
+
+
+def _check_estimators(names: tuple[str, ...], options: dict[str, dict]) -> None:
+    """``--estimators``: at least one, each known; ``--option``: only for known estimators."""
+    from navbench.errors import ConfigError
+    from navbench.track.registry import known_estimators
+
+    known = known_estimators()
+    if not names:
+        raise ConfigError(f"--estimators: expected at least one estimator name; choose from {known}")
+    for n in names:
+        if n not in known:
+            raise ConfigError(f"--estimators: unknown estimator {n!r}; choose from {known}")
+    for n in options:
+        if n not in known:
+            raise ConfigError(f"--option: unknown estimator {n!r}; choose from {known}")
 
 
 def _load_map(spec: str, level):
