@@ -59,22 +59,16 @@ def _register_all() -> None:
 _register_all()
 
 
-def _click_types() -> tuple[tuple[type, ...], tuple[type, ...], tuple[type, ...]]:
-    """``(ClickException, Exit, Abort)`` classes of click and of typer's vendored copy of click
-    (typer >= 0.29 raises its own ``typer._click.exceptions`` classes, which are not click's)."""
-    import click
-
-    exc, exits, aborts = [click.ClickException], [typer.Exit, click.exceptions.Exit], [typer.Abort, click.Abort]
-    try:
-        from typer._click import exceptions as vendored
-
-        exc.append(vendored.ClickException)
-        for name, bucket in (("Exit", exits), ("Abort", aborts)):
-            if hasattr(vendored, name):
-                bucket.append(getattr(vendored, name))
-    except ImportError:  # an older typer that uses click itself
-        pass
-    return tuple(exc), tuple(exits), tuple(aborts)
+def _click_kind(e: BaseException) -> str | None:
+    """``"Exit"``, ``"Abort"`` or ``"ClickException"`` when *e* is one of click's control-flow
+    exceptions (or typer's own Exit/Abort), else None. Matched by class name along the MRO so
+    that it works with click itself (typer < 0.29) and with typer's vendored copy
+    (``typer._click``, typer >= 0.29) without importing either."""
+    for cls in type(e).__mro__:
+        ours = "click" in cls.__module__ or cls.__module__ == "typer.exceptions"
+        if ours and cls.__name__ in ("Exit", "Abort", "ClickException"):
+            return cls.__name__
+    return None
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -82,7 +76,6 @@ def main(argv: list[str] | None = None) -> None:
     usage errors into click's short usage message (exit 2)."""
     from navbench.errors import NavbenchError
 
-    click_errors, exits, aborts = _click_types()
     try:
         rv = app(args=argv, standalone_mode=False)
     except NavbenchError as e:
@@ -92,14 +85,17 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         typer.secho("interrupted", err=True, fg=typer.colors.YELLOW)
         sys.exit(130)
-    except exits as e:
-        sys.exit(e.exit_code)
-    except aborts:
-        typer.secho("aborted", err=True)
-        sys.exit(1)
-    except click_errors as e:  # usage errors (bad option, value out of range, missing argument)
-        e.show()
-        sys.exit(e.exit_code)
+    except Exception as e:
+        kind = _click_kind(e)
+        if kind == "Exit":
+            sys.exit(e.exit_code)
+        if kind == "Abort":
+            typer.secho("aborted", err=True)
+            sys.exit(1)
+        if kind == "ClickException":  # usage errors (bad option, value out of range, missing argument)
+            e.show()
+            sys.exit(e.exit_code)
+        raise
     # with standalone_mode=False, click returns typer.Exit(n)'s code (and 1 after Ctrl-C)
     if isinstance(rv, int) and rv:
         sys.exit(rv)
