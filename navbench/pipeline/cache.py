@@ -172,11 +172,15 @@ class ArtifactStore:
 
     # ------------------------------------------------------------------ writing
     def write(self, stage: str, key: str, compute: Callable[[Path], None], *, config: Any,
-              inputs: dict[str, str], version: int, log: Log = _noop) -> Path:
+              inputs: dict[str, str], version: int, log: Log = _noop,
+              replace: bool = False) -> Path:
         """Run ``compute(tmpdir)`` and atomically install its files as artifact ``key``.
 
         ``compute`` writes plain files (subdirectories allowed) into ``tmpdir``; the manifest is
-        added here. An existing artifact with this key is replaced.
+        added here. A valid artifact with this key that appeared meanwhile (another process
+        computing the same stage) is kept and ours dropped, so a concurrent reader of it never
+        sees it vanish; it is replaced only with ``replace`` (``--force``). An invalid one is
+        always replaced.
         """
         final = self.path(stage, key)
         final.parent.mkdir(parents=True, exist_ok=True)
@@ -200,6 +204,9 @@ class ArtifactStore:
                 f.flush()
                 os.fsync(f.fileno())
             if final.exists():
+                if not replace and self.lookup(stage, key, log) is not None:
+                    shutil.rmtree(tmp, ignore_errors=True)
+                    return final
                 self._discard(final)
             try:
                 os.rename(tmp, final)
@@ -374,5 +381,6 @@ def run_stage(store: ArtifactStore, stage: str, config: Any, inputs: dict[str, s
             log(f"{stage}: cached {key[:12]}")
             return hit, key, True
     log(f"{stage}: computing {key[:12]}")
-    path = store.write(stage, key, compute, config=config, inputs=inputs, version=version, log=log)
+    path = store.write(stage, key, compute, config=config, inputs=inputs, version=version, log=log,
+                       replace=force)
     return path, key, False

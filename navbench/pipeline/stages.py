@@ -738,7 +738,8 @@ def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str) -> dict:
 
 
 def _store_trajectory(ctx: StageContext, job: EpisodeJob, record: Any) -> str:
-    """Write an episode's trajectory artifact (replacing any there); returns its key."""
+    """Write an episode's trajectory artifact (a valid one already there is kept: episodes are
+    deterministic); returns its key."""
     key = episode_key(job)
     c = job.cell
     ctx.store.write("episode", key, lambda d: save_record(record, d / TRAJ_FILE),

@@ -57,6 +57,27 @@ def test_force_recomputes(store):
     assert not cached and f.calls == 2
 
 
+def test_an_artifact_installed_meanwhile_is_kept_not_replaced(store):
+    """Two processes computing the same stage: the second to finish keeps the first's artifact
+    (a reader of it must never see it vanish); only --force (replace) swaps it."""
+    key = stage_key("s", {"a": 1}, {}, 1)
+    first = Counter(b"first")
+
+    def racing(d):  # another process installs the same key while this one computes
+        store.write("s", key, first, config={"a": 1}, inputs={}, version=1)
+        (d / "data.bin").write_bytes(b"second")
+
+    path = store.write("s", key, racing, config={"a": 1}, inputs={}, version=1)
+    assert (path / "data.bin").read_bytes() == b"first"
+    inode = (path / "data.bin").stat().st_ino
+    assert not [p for p in path.parent.iterdir() if p.name != key]  # our temp dir is gone
+    store.write("s", key, Counter(b"third"), config={"a": 1}, inputs={}, version=1)
+    assert (path / "data.bin").stat().st_ino == inode
+    store.write("s", key, Counter(b"forced"), config={"a": 1}, inputs={}, version=1, replace=True)
+    assert (path / "data.bin").read_bytes() == b"forced"
+    store.verify("s", key)
+
+
 def test_manifest_records_config_inputs_and_checksums(store):
     p, k, _ = run_stage(store, "s", {"a": 1}, {"up": "k0"}, 3, Counter())
     man = json.loads((p / "manifest.json").read_text())
