@@ -24,7 +24,8 @@ ENV_ID = "navbench/PointNav-v0"
 
 def make_pointnav(level, **kwargs):
     """The registered entry point: resolve ``level`` and build a :class:`PointNavEnv`."""
-    from navbench.level import Level, resolve_level
+    from navbench.level import Level
+    from navbench.levelio import resolve_level
     from navbench.sim.env import PointNavEnv
 
     if not isinstance(level, Level):

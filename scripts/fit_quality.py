@@ -34,7 +34,7 @@ VARIANTS = {
 
 def main() -> None:
     from navbench.geometry import camera_by_name
-    from navbench.level import resolve_level
+    from navbench.levelio import resolve_level
     from navbench.worldmodel.fit import FitConfig, fit_map
     from navbench.worldmodel.views import collect_views, load_views, save_views
 

@@ -58,7 +58,7 @@ COLUMNS = ("cell_key", "level", "map_key", "task_set_key", "task_id", "estimator
 def grid_rows(code_root: Path = ROOT) -> list[dict]:
     """Run the grid with the navbench package found under ``code_root``; the stored rows."""
     sys.path.insert(0, str(code_root))
-    from navbench.level import save_level
+    from navbench.levelio import save_level
     from tests.pipeline.test_stages import tiny_level
 
     with tempfile.TemporaryDirectory() as d:

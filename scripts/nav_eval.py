@@ -20,7 +20,8 @@ from collections import Counter
 
 import numpy as np
 
-from navbench.level import occupancy_raster, resolve_level
+from navbench.level import occupancy_raster
+from navbench.levelio import resolve_level
 from navbench.nav.episode import EpisodeConfig, run_episode
 from navbench.nav.metrics import score_episode, spl
 from navbench.plan.astar import make_planner_map

@@ -143,7 +143,7 @@ def test_device_rows_run_their_code_on_the_cpu():
     """The CUDA rows time the fit's device path (render_rays_torch, fit_map(device=...)); run
     that very code on the CPU (``torch-cpu``) so it is exercised on machines without a GPU."""
     from navbench.bench import time_diff_render, time_fit_step
-    from navbench.level import resolve_level
+    from navbench.levelio import resolve_level
     from navbench.worldmodel.grid import grid_for_level, voxelize_level
 
     level = resolve_level("house-1")
@@ -172,7 +172,7 @@ def test_bench_map_prefers_a_cached_fitted_map_of_the_level(tmp_path):
     from pathlib import Path
 
     from navbench.bench import bench_map
-    from navbench.level import level_path, resolve_level
+    from navbench.levelio import level_path, resolve_level
     from navbench.pipeline.cache import ArtifactStore
     from navbench.worldmodel.grid import GridSpec, save_map, voxelize_level
 

@@ -61,7 +61,7 @@ def test_metric_keys_are_the_table_and_pinned():
 @pytest.fixture
 def fake_timers(monkeypatch):
     """Every timer returns [1, 2, 3] ms (the end-to-end run: 2 episodes, 90 steps in 1.5 s)."""
-    from navbench.level import resolve_level
+    from navbench.levelio import resolve_level
     from navbench.worldmodel.grid import grid_for_level, voxelize_level
 
     level = resolve_level("house-1")

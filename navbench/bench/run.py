@@ -95,7 +95,7 @@ def run_bench(quick: bool = False, repeats: int | None = None, config: BenchConf
     """
     import torch
 
-    from navbench.level import level_path, resolve_level
+    from navbench.levelio import level_path, resolve_level
     from navbench.track.base import estimator_names
     from navbench.worldmodel.fastrender import map_step
 

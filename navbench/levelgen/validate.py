@@ -132,7 +132,7 @@ def validate_free_space(level: Level, resolution: float = VALIDATION_RESOLUTION,
                         clearance: float = CLEARANCE) -> None:
     """Checks (2)-(5) of :func:`validate_level`: the free space alone, not the box.
 
-    :func:`navbench.level.load_level` uses this one: a level file's points are checked to lie
+    :func:`navbench.levelio.load_level` uses this one: a level file's points are checked to lie
     in the box by the file reader, and a hand-made wall centred on the box edge may stick out
     by half its thickness (the generator's own levels never do, and keep the strict check).
     """

@@ -318,7 +318,7 @@ def _section_tracking(page: _Page, episodes, tracking) -> None:
 def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
                     load_trajectory: TrajectoryLoader | None, per_level: int) -> None:
     from navbench.errors import NavbenchError
-    from navbench.level import load_level
+    from navbench.levelio import load_level
     from navbench.pipeline.plots import plot_level_runs
 
     page.h2("Levels, tasks and trajectories (Fig. 3)", "levels")

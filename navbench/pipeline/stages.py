@@ -132,7 +132,7 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         ctx.log(f"make-level: {cfg.name} from {committed} ({key[:12]})")
 
         def check() -> None:
-            from navbench.level import read_level_file
+            from navbench.levelio import read_level_file
 
             _, text = read_level_file(committed, name=cfg.name)  # fields, name, free space
             if hashlib.sha256(text.encode()).hexdigest() != key:
@@ -144,7 +144,7 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
     else:
         def compute(d: Path) -> None:
             from navbench import levelgen
-            from navbench.level import save_level
+            from navbench.levelio import save_level
 
             if cfg.name in levelgen.BENCHMARK_LEVELS:
                 level = levelgen.make_benchmark_level(cfg.name)
@@ -169,7 +169,7 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
 
 def load_level_ref(ref: Ref):
     """The :class:`navbench.level.Level` of a make-level reference."""
-    from navbench.level import load_level
+    from navbench.levelio import load_level
 
     return load_level(ref.path, name=ref.name or None)
 
@@ -649,7 +649,7 @@ def _worker_inputs(spec: ChunkSpec):
     memo_key = (spec.level_path, spec.map_path, spec.tasks_path, spec.slice_mode)
     hit = _WORKER_MEMO.get(memo_key)
     if hit is None:
-        from navbench.level import load_level
+        from navbench.levelio import load_level
         from navbench.plan.tasks import load_tasks
         from navbench.worldmodel.grid import load_map, occupancy_slice
 

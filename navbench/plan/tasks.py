@@ -327,7 +327,7 @@ def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out
     The level is resolved by name (``<root>/levels/<name>.json``) or path; its file text's
     sha256 goes into the task file. ``out_dir`` defaults to ``<root>/tasks``.
     """
-    from navbench.level import read_level_file, level_path
+    from navbench.levelio import read_level_file, level_path
 
     p = Path(level_name_or_path)
     if not (p.suffix == ".json" or p.is_file()):

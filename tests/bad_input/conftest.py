@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from navbench.level import save_level
+from navbench.levelio import save_level
 
 TINY_PROFILE = """
 name = "tinytest"

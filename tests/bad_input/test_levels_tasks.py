@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from navbench.level import dumps_level, level_to_dict
+from navbench.levelio import dumps_level, level_to_dict
 from navbench.plan.tasks import dumps_tasks, level_sha256, read_task_file, task_file_name
 
 from .conftest import assert_clean_error, nb, tree_snapshot, written_outside

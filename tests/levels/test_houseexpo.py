@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from navbench.errors import LevelError
-from navbench.level import dumps_level, _is_convex
+from navbench.level import _is_convex
+from navbench.levelio import dumps_level
 from navbench.levelgen import (HOUSEEXPO_MARGIN, _inside_polygon, _poly_area, exterior_fill,
                                level_from_houseexpo, level_stats, validate_level)
 

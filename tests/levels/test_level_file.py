@@ -5,7 +5,7 @@ import json
 import pytest
 
 from navbench.errors import LevelError
-from navbench.level import dumps_level, level_to_dict, load_level, save_level
+from navbench.levelio import dumps_level, level_to_dict, load_level, save_level
 from navbench.levelgen import generate_maze
 
 
@@ -114,14 +114,14 @@ def test_committed_levels_load_unchanged():
 
 
 def test_resolve_level_refuses_unsafe_names(tmp_path):
-    from navbench.level import resolve_level
+    from navbench.levelio import resolve_level
 
     with pytest.raises(LevelError, match="not a safe name"):
         resolve_level("../x", tmp_path)
 
 
 def test_a_level_loaded_by_file_must_be_named_after_it(tmp_path, doc):
-    from navbench.level import resolve_level
+    from navbench.levelio import resolve_level
 
     d = _broken(doc, lambda d: d.update(name="other"))
     p = _write(tmp_path, d)

@@ -9,8 +9,8 @@ import pytest
 
 from navbench.errors import ConfigError, LevelError
 from navbench.geometry import CAMERA_HEIGHT
-from navbench.level import (Obstacle, Wall, distance_to_solids, dumps_level, level_from_dict,
-                            load_level, prisms, _is_convex)
+from navbench.level import Obstacle, Wall, distance_to_solids, prisms, _is_convex
+from navbench.levelio import dumps_level, level_from_dict, load_level
 from navbench import levelgen
 from navbench.levelgen import (BENCHMARK_LEVELS, CLEARANCE, clearance_mask, generate_level,
                                generate_maze, make_benchmark_level, make_level, validate_level)

@@ -8,7 +8,7 @@ import sqlite3
 import pytest
 from typer.testing import CliRunner
 
-from navbench.level import save_level
+from navbench.levelio import save_level
 
 from .test_stages import tiny_level
 

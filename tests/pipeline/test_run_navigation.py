@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from navbench.level import save_level
+from navbench.levelio import save_level
 
 from .test_stages import tiny_level
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from navbench.errors import ConfigError
-from navbench.level import Level, Obstacle, Texture, Wall, save_level
+from navbench.level import Level, Obstacle, Texture, Wall
+from navbench.levelio import save_level
 from navbench.pipeline import stages
 from navbench.pipeline.cache import ArtifactStore
 from navbench.pipeline.profiles import Profile, load_profile, override, profile_from_dict

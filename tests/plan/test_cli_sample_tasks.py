@@ -5,7 +5,7 @@ from __future__ import annotations
 from typer.testing import CliRunner
 
 from navbench.cli.main import app
-from navbench.level import save_level
+from navbench.levelio import save_level
 from navbench.plan.tasks import level_sha256, read_task_file
 
 from .levels import door_rooms

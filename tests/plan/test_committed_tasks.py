@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navbench.level import distance_to_solids, load_level
+from navbench.level import distance_to_solids
+from navbench.levelio import load_level
 from navbench.plan.tasks import level_sha256, read_task_file, task_file_name, dumps_tasks
 
 ROOT = Path(__file__).resolve().parents[2]

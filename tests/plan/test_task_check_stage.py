@@ -12,7 +12,7 @@ from navbench.pipeline.stages import (LevelConfig, StageContext, TasksConfig, co
                                       make_level_stage, sample_tasks_stage)
 from navbench.plan.tasks import dumps_tasks, read_task_file, task_file_name
 from tests.pipeline.test_stages import tiny_level
-from navbench.level import save_level
+from navbench.levelio import save_level
 
 
 @pytest.fixture
@@ -88,7 +88,7 @@ def test_committed_level_is_checked_and_unsafe_names_refused(ctx):
 def test_generated_level_is_loaded_from_the_cache_under_its_name(ctx, monkeypatch):
     """A generated level is cached as ``level.json``: it loads under its own name."""
     from navbench import levelgen
-    from navbench.level import load_level
+    from navbench.levelio import load_level
     from navbench.pipeline.stages import load_level_ref
 
     monkeypatch.setattr(levelgen, "generate_level", lambda name, seed, *a, **k: tiny_level(name))

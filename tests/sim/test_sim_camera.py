@@ -186,7 +186,7 @@ def test_paper_camera_matches_reference_once():
 def test_house_1_matches_reference():
     from pathlib import Path
 
-    from navbench.level import load_level
+    from navbench.levelio import load_level
 
     path = Path(__file__).resolve().parents[2] / "levels" / "house-1.json"
     if not path.is_file():

@@ -105,7 +105,7 @@ def test_registered_with_gymnasium(tmp_path, monkeypatch):
     import gymnasium as gym
 
     import navbench.envs  # noqa: F401
-    from navbench.level import save_level
+    from navbench.levelio import save_level
 
     env = gym.make("navbench/PointNav-v0", level=rooms(), intrinsics=SMALL, noise="low", seed=0)
     obs, info = env.reset()

@@ -8,7 +8,8 @@ import pytest
 
 from navbench.errors import TaskError
 from navbench.geometry import AGENT_LENGTH, HALF_CAMERA
-from navbench.level import distance_to_solids, load_level
+from navbench.level import distance_to_solids
+from navbench.levelio import load_level
 from navbench.sim.dynamics import MAX_STEP, MAX_TURN, Control
 from navbench.sim.world import CollisionWorld, Simulator, sample_free_points
 

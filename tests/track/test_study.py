@@ -61,7 +61,7 @@ def test_config_validation():
 
 def test_track_eval_cli_prints_json(tmp_path, level):
     from navbench.cli.main import app
-    from navbench.level import save_level
+    from navbench.levelio import save_level
 
     path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     result = CliRunner().invoke(app, [
@@ -93,7 +93,7 @@ def test_track_eval_cli_prints_json(tmp_path, level):
 
 def test_track_eval_rerun_stores_no_duplicates(tmp_path, level):
     from navbench.cli.main import app
-    from navbench.level import save_level
+    from navbench.levelio import save_level
     from navbench.pipeline.db import ResultsDB
 
     path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
@@ -111,7 +111,7 @@ def test_track_eval_rerun_stores_no_duplicates(tmp_path, level):
 
 def test_track_eval_cli_rejects_bad_options(tmp_path, level):
     from navbench.cli.main import app
-    from navbench.level import save_level
+    from navbench.levelio import save_level
 
     path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     result = CliRunner().invoke(app, ["track-eval", str(path), "--trajectories", "1", "--steps", "2",

@@ -103,7 +103,7 @@ def bench(
     from navbench.bench import BenchConfig, bench_rows, run_bench
     from navbench.config import config_hash, to_jsonable
 
-    from navbench.level import resolve_level
+    from navbench.levelio import resolve_level
 
     resolve_level(level)  # a bad level name fails here, before a run is recorded
     cfg = BenchConfig(level=level, quick=quick, repeats=repeats, seed=seed, workers=workers,

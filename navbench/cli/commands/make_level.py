@@ -13,7 +13,7 @@ def _write(level, force: bool) -> tuple[Path, str]:
     """Write ``levels/<name>.json`` under the working directory; refuse to replace a different
     file unless ``force``. Returns the path and what happened (written/unchanged/replaced)."""
     from navbench.errors import LevelError
-    from navbench.level import dumps_level, level_path, save_level
+    from navbench.levelio import dumps_level, level_path, save_level
 
     path = level_path(level.name)
     text = dumps_level(level)

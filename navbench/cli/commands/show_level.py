@@ -23,7 +23,7 @@ def register(app: typer.Typer) -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from navbench.level import resolve_level
+        from navbench.levelio import resolve_level
         from navbench.levelview import draw_level
 
         level = resolve_level(name)

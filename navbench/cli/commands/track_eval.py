@@ -68,7 +68,7 @@ def register(app: typer.Typer) -> None:
         """
         import time
 
-        from navbench.level import resolve_level
+        from navbench.levelio import resolve_level
         from navbench.track.study import (
             STUDY_EMISSION_OPTIONS,
             TrackingStudyConfig,
@@ -167,7 +167,7 @@ def _store(res, cfg, level, map_spec: str, db_url: str | None) -> dict:
     from pathlib import Path
 
     from navbench.config import config_hash
-    from navbench.level import dumps_level
+    from navbench.levelio import dumps_level
     from navbench.pipeline.db import ResultsDB
     from navbench.track.study import tracking_rows
 
