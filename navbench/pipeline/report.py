@@ -497,14 +497,14 @@ def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryL
     store = ArtifactStore(cache_root)
 
     def load_trajectory(key: str) -> dict:
-        from navbench.pipeline.stages import TRAJ_FILE, load_record
+        from navbench.pipeline.artifacts import TRAJ_FILE, load_record
 
         rec = load_record(store.load("episode", key) / TRAJ_FILE)
         return {"true_poses": np.asarray(rec.true_poses), "est_poses": np.asarray(rec.est_poses),
                 "target": np.asarray(rec.target)}
 
     def load_map(key: str):
-        from navbench.pipeline.stages import MAP_FILE
+        from navbench.pipeline.artifacts import MAP_FILE
         from navbench.worldmodel.grid import load_map as _load
 
         return _load(store.load("fit-map", key) / MAP_FILE)

@@ -69,7 +69,7 @@ def forbid(monkeypatch, *targets):
 
 
 HEAVY = ("navbench.worldmodel.views.collect_views", "navbench.worldmodel.fit.fit_map",
-         "navbench.plan.tasks.sample_tasks", "navbench.pipeline.stages.run_episode_chunk",
+         "navbench.plan.tasks.sample_tasks", "navbench.pipeline.stages.navigation.run_episode_chunk",
          "navbench.pipeline.report.build_report", "navbench.pipeline.score.summarise")
 
 
@@ -99,7 +99,7 @@ def test_all_then_cached_rerun_then_tampered_map(project, monkeypatch):
     (fit,) = ArtifactStore("results/cache").ls("fit-map")
     (fit.path / "map.npz").write_bytes(b"garbage")
     with monkeypatch.context() as m:
-        forbid(m, "navbench.worldmodel.views.collect_views", "navbench.pipeline.stages.run_episode_chunk")
+        forbid(m, "navbench.worldmodel.views.collect_views", "navbench.pipeline.stages.navigation.run_episode_chunk")
         out = invoke("all", "--profile", "tiny.toml")
     assert "warning" in out and "fit-map: computing" in out and "0 new episodes" in out
 

@@ -320,7 +320,7 @@ def test_report_from_real_records_through_the_stage_cache(tmp_path, fake_isometr
     from navbench.pipeline.cache import ArtifactStore
     from navbench.pipeline.db import episode_row_from_score
     from navbench.pipeline.report import store_loaders
-    from navbench.pipeline.stages import MAP_FILE, TRAJ_FILE, save_record
+    from navbench.pipeline.artifacts import MAP_FILE, TRAJ_FILE, save_record
     from navbench.worldmodel.grid import GridSpec, VoxelMap, save_map
 
     store = ArtifactStore(tmp_path / "cache")

@@ -115,7 +115,7 @@ def test_stored_trajectory_is_scored_without_simulating(tmp_path, monkeypatch, r
     """A run killed after writing a trajectory but before its row: the rerun scores the stored
     trajectory instead of simulating it again."""
     from navbench.cli.main import app
-    from navbench.pipeline import stages
+    from navbench.pipeline.stages import navigation as stages
 
     root = workdir(tmp_path)
     monkeypatch.chdir(root)

@@ -11,7 +11,7 @@ import pytest
 from navbench.errors import ConfigError
 from navbench.level import Level, Obstacle, Texture, Wall
 from navbench.levelio import save_level
-from navbench.pipeline import stages
+from navbench.pipeline import artifacts, stages
 from navbench.pipeline.cache import ArtifactStore
 from navbench.pipeline.profiles import Profile, load_profile, override, profile_from_dict
 from navbench.pipeline.stages import (
@@ -141,8 +141,8 @@ def test_record_roundtrip(tmp_path):
         est_poses=np.zeros((4, 3)), controls=np.zeros((3, 3)), collided=False, collision_step=-1,
         plan=np.zeros((0, 2)), replans=0, end_reason="reached",
         timings_ms={"sim": np.ones(3), "plan": np.arange(3.0)})
-    stages.save_record(rec, tmp_path / "e.npz")
-    back = stages.load_record(tmp_path / "e.npz")
+    artifacts.save_record(rec, tmp_path / "e.npz")
+    back = artifacts.load_record(tmp_path / "e.npz")
     for f in dataclasses.fields(rec):
         a, b = getattr(rec, f.name), getattr(back, f.name)
         if isinstance(a, np.ndarray):

@@ -1,0 +1,74 @@
+"""What every stage receives (:class:`StageContext`) and returns (:class:`Ref`), and the cached
+check that lets a stage verify an input once per content (:func:`verified`)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from navbench.pipeline.cache import ArtifactStore, run_stage
+from navbench.pipeline.artifacts import FORMAT, VERIFY_FILE
+
+
+def _noop(*_a, **_k) -> None:
+    pass
+
+
+@dataclass
+class StageContext:
+    """What every stage needs besides its config.
+
+    ``force``: stage names to recompute even when cached (``{"*"}`` = all).
+    ``progress(description, total) -> update``: a progress-bar factory (no-op by default);
+    ``update(done, total=None, loss=None)`` sets the bar to ``done`` items (``loss``: shown
+    for fits). It matches the ``progress`` callbacks of ``collect_views`` and ``fit_map``.
+    ``levels_dir`` / ``tasks_dir``: where committed level and task files are looked up.
+    """
+
+    store: ArtifactStore
+    db: Any = None
+    log: Callable[[str], None] = _noop
+    progress: Callable[[str, int], Callable[[int], None]] = lambda desc, total: _noop
+    force: frozenset = frozenset()
+    levels_dir: Path = Path("levels")
+    tasks_dir: Path = Path("tasks")
+    used: list = field(default_factory=list)   # (stage, key) pairs touched: gc roots
+
+    def forced(self, stage: str) -> bool:
+        return "*" in self.force or stage in self.force
+
+    def run(self, stage: str, config: Any, inputs: dict[str, str],
+            compute: Callable[[Path], None]) -> tuple[Path, str, bool]:
+        path, key, cached = run_stage(self.store, stage, config, inputs, FORMAT[stage], compute,
+                                      force=self.forced(stage), log=self.log)
+        self.used.append((stage, key))
+        return path, key, cached
+
+
+@dataclass(frozen=True)
+class Ref:
+    """A verified artifact: ``stage``, ``key`` (sha256 hex), ``path`` (a file or directory)."""
+
+    stage: str
+    key: str
+    path: Path
+    cached: bool = True
+    name: str = ""          # level name for per-level artifacts
+    meta: dict = field(default_factory=dict, compare=False)
+
+
+def verified(ctx: StageContext, what: str, inputs: dict[str, str], check: Callable[[], None]) -> None:
+    """Run ``check()`` (which raises on failure) once per content keys ``inputs``.
+
+    A passed check is remembered as a tiny ``verify`` artifact keyed by ``what`` and ``inputs``,
+    so a rerun on the same level and task files costs one lookup instead of the check (the
+    task-set check recomputes 200 shortest paths: ~0.1 s warm, seconds with the planner's
+    first compilation). A failed check stores nothing and its error propagates.
+    """
+    def compute(d: Path) -> None:
+        check()
+        (d / VERIFY_FILE).write_text(json.dumps({"verified": what, "inputs": inputs}, sort_keys=True))
+
+    ctx.run("verify", {"check": what}, inputs, compute)

@@ -1,0 +1,64 @@
+"""The profile glue: everything navigation needs for one level (level, map, task set), built
+from a profile's settings through the cached stages."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+from navbench.errors import ArtifactError
+from navbench.pipeline.artifacts import VIEWS_FILE
+from navbench.pipeline.stages.context import Ref, StageContext
+from navbench.pipeline.stages.level import LevelConfig, make_level_stage
+from navbench.pipeline.stages.maps import FitMapConfig, fit_map_stage, true_map_stage
+from navbench.pipeline.stages.tasks import TasksConfig, sample_tasks_stage
+from navbench.pipeline.stages.views import ViewsConfig, collect_views_stage
+
+
+@dataclass(frozen=True)
+class LevelInputs:
+    """Everything navigation needs for one level: the level, its map and its task set."""
+
+    level: Ref
+    map: Ref
+    tasks: Ref
+
+
+def build_level_inputs(ctx: StageContext, profile, level_name: str,
+                       views_key: str | None = None) -> LevelInputs:
+    """Run (or fetch from the cache) make-level -> collect-views (train and held-out) -> fit-map
+    -> sample-tasks for one level with ``profile``'s settings. ``views_key`` replaces the
+    training views by a stored collect-views artifact. With ``profile.map_source == "true"``
+    the map is the voxelized true geometry and no views are collected."""
+    level = make_level_stage(ctx, LevelConfig(level_name, profile.level_seed))
+    if profile.map_source == "true":
+        return LevelInputs(level, true_map_stage(ctx, level),
+                           sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed)))
+    vmap = fit_map_for_profile(ctx, profile, level, views_key)
+    tasks = sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed))
+    return LevelInputs(level, vmap, tasks)
+
+
+def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:
+    """collect-views (train and held-out) -> fit-map for one level with ``profile``'s settings."""
+    cfg = FitMapConfig(profile.fit_steps, profile.fit_seed, dict(profile.fit), profile.eval_views,
+                       profile.eval_seed)
+    fit_cfg = cfg.fit_config()  # a bad fit option fails here, before any views are collected
+    if fit_cfg.device.startswith("cuda"):  # an explicit GPU request (imports torch only then)
+        from navbench.worldmodel.fit import resolve_fit_device
+
+        resolve_fit_device(fit_cfg.device)
+    camera = profile.camera
+    if views_key:
+        stage, key = ctx.store.find(views_key, "collect-views")
+        p = ctx.store.load(stage, key)
+        man = json.loads((p / "manifest.json").read_text())
+        if man.get("inputs", {}).get("level") != level.key:
+            raise ArtifactError(f"views {key[:12]} were not collected on level {level.name} "
+                                f"(level key {level.key[:12]})")
+        camera = man.get("config", {}).get("camera", camera)
+        views = Ref(stage, key, p / VIEWS_FILE, True, level.name)
+    else:
+        views = collect_views_stage(ctx, level, ViewsConfig(profile.views, camera, profile.views_seed))
+    held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed))
+    return fit_map_stage(ctx, level, views, held, cfg)

@@ -1,0 +1,107 @@
+"""fit-map (the voxel world model of eq. 1-3 fitted to views by differentiable rendering) and
+true-map (the level's true geometry voxelized: the upper bound for planning)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from navbench.config import to_jsonable
+from navbench.errors import ConfigError
+from navbench.pipeline.artifacts import MAP_FILE, METRICS_FILE
+from navbench.pipeline.stages.context import Ref, StageContext
+from navbench.pipeline.stages.level import load_level_ref
+
+
+@dataclass(frozen=True)
+class FitMapConfig:
+    """fit-map: ``steps`` Adam steps from batch seed ``seed``; ``fit`` holds any other
+    :class:`navbench.worldmodel.fit.FitConfig` field. The map is evaluated on held-out views
+    (a separate collect-views with ``eval_count`` views from ``eval_seed``)."""
+
+    steps: int = 200
+    seed: int = 0
+    fit: dict = field(default_factory=dict)
+    eval_count: int = 200
+    eval_seed: int = 1
+
+    def fit_config(self):
+        """The resolved :class:`FitConfig` (imports the world-model fit module)."""
+        from navbench.worldmodel.fit import FitConfig
+
+        names = {f.name for f in dataclasses.fields(FitConfig)}
+        unknown = set(self.fit) - names
+        if unknown:
+            raise ConfigError(f"unknown FitConfig field(s) {sorted(unknown)}; known: {sorted(names)}")
+        kw = dict(self.fit)
+        kw.update(steps=self.steps, seed=self.seed)
+        return FitConfig(**kw)
+
+
+#: Fields the fit-map command's ``--json`` always prints.
+MAP_METRIC_KEYS = ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "fit_seconds", "steps")
+
+
+def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cfg: FitMapConfig) -> Ref:
+    """Fit a voxel map to ``views``, evaluate it on ``eval_views`` and the level's true slice;
+    the artifact holds ``map.npz`` and ``metrics.json``. ``ref.meta`` is the metrics dict."""
+    fit_cfg = cfg.fit_config()
+    resolved = {"fit": to_jsonable(fit_cfg), "eval_count": cfg.eval_count}
+
+    def compute(d: Path) -> None:
+        from navbench.worldmodel.fit import evaluate_map, fit_map
+        from navbench.worldmodel.grid import save_map
+        from navbench.worldmodel.views import load_views
+
+        train = load_views(views.path)
+        update = ctx.progress(f"fit {level.name}", fit_cfg.steps)
+        vmap, metrics = fit_map(train, fit_cfg, progress=update)
+        del train
+        held = load_views(eval_views.path)
+        quality = evaluate_map(vmap, load_level_ref(level), held)
+        out = {**dict(metrics), **dict(quality)}
+        out.setdefault("fit_seconds", out.get("fit_time_s"))
+        out.setdefault("steps", fit_cfg.steps)
+        out["eval_views"] = int(cfg.eval_count)
+        save_map(vmap, d / MAP_FILE)
+        (d / METRICS_FILE).write_text(json.dumps(to_jsonable(out), indent=1, sort_keys=True))
+
+    path, key, cached = ctx.run("fit-map", resolved,
+                                {"level": level.key, "views": views.key, "eval_views": eval_views.key},
+                                compute)
+    metrics = json.loads((path / METRICS_FILE).read_text())
+    if ctx.db is not None:
+        ctx.db.record_map(level.name, key, metrics)
+    return Ref("fit-map", key, path / MAP_FILE, cached, level.name, metrics)
+
+
+@dataclass(frozen=True)
+class TrueMapConfig:
+    """true-map: the level's TRUE geometry voxelized (:func:`navbench.worldmodel.grid.voxelize_level`)
+    with square cells of ``cell`` metres in x, y (the paper's grid: 11.4 m / 200) and ``nz``
+    cells in z. An upper bound for planning, and a map for tests that need no fit."""
+
+    cell: float = 11.4 / 200
+    nz: int = 20
+
+
+def true_map_stage(ctx: StageContext, level: Ref, cfg: TrueMapConfig = TrueMapConfig()) -> Ref:
+    """The voxelized true geometry as a map artifact (``map.npz``, ``metrics.json``)."""
+
+    def compute(d: Path) -> None:
+        import math
+
+        from navbench.worldmodel.grid import grid_for_level, save_map, voxelize_level
+
+        lv = load_level_ref(level)
+        shape = (max(2, math.ceil(lv.width / cfg.cell - 1e-9)), max(2, math.ceil(lv.depth / cfg.cell - 1e-9)), cfg.nz)
+        save_map(voxelize_level(lv, grid_for_level(lv, shape=shape)), d / MAP_FILE)
+        (d / METRICS_FILE).write_text(json.dumps({"source": "true", "steps": 0}))
+
+    path, key, cached = ctx.run("true-map", cfg, {"level": level.key}, compute)
+    metrics = json.loads((path / METRICS_FILE).read_text())
+    if ctx.db is not None:
+        ctx.db.record_map(level.name, key, metrics)
+    return Ref("true-map", key, path / MAP_FILE, cached, level.name, metrics)

@@ -1,0 +1,36 @@
+"""score: the score table of a set of cells, cached by the set of stored episodes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from navbench.config import config_hash
+from navbench.pipeline.artifacts import SCORE_FILE
+from navbench.pipeline.stages.context import Ref, StageContext
+from navbench.pipeline.stages.grid import Cell
+
+
+def episodes_state_key(ctx: StageContext, cells: list[Cell]) -> str:
+    """A key for everything stored about ``cells``: the sorted (cell, task, seed) triples."""
+    done = sorted(ctx.db.done_episode_keys([c.key for c in cells]))
+    return config_hash({"cells": sorted(c.key for c in cells), "episodes": [list(t) for t in done]})
+
+
+def score_stage(ctx: StageContext, cells: list[Cell]) -> Ref:
+    """The score table of exactly these cells (:func:`navbench.pipeline.score.select_episodes`
+    restricted to the cells' keys, then :func:`~navbench.pipeline.score.summarise`), cached by
+    the set of stored episodes; the artifact is ``score.csv``."""
+    state = episodes_state_key(ctx, cells)
+    levels = sorted({c.level for c in cells})
+
+    def compute(d: Path) -> None:
+        from navbench.pipeline.score import select_episodes, summarise
+
+        frame = select_episodes(ctx.db, level=levels)
+        if not frame.empty:
+            frame = frame[frame["cell_key"].isin(cell_keys)]
+        summarise(frame).to_csv(d / SCORE_FILE, index=False)
+
+    cell_keys = sorted(c.key for c in cells)
+    path, key, cached = ctx.run("score", {"levels": levels}, {"episodes": state}, compute)
+    return Ref("score", key, path / SCORE_FILE, cached)

@@ -1,0 +1,59 @@
+"""collect-views: pose-labelled RGB-D views of a level, sampled in free space (the world model's
+training and held-out data)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from navbench.errors import ConfigError
+from navbench.pipeline.artifacts import VIEWS_FILE
+from navbench.pipeline.stages.context import Ref, StageContext
+from navbench.pipeline.stages.level import load_level_ref
+
+
+@dataclass(frozen=True)
+class ViewsConfig:
+    """collect-views: ``count`` pose-labelled RGB-D views sampled uniformly in free space with
+    ``camera`` (``half``: 160x120, ``paper``: 320x240) from pose sampling ``seed``."""
+
+    count: int
+    camera: str = "half"
+    seed: int = 0
+
+    def __post_init__(self):
+        if isinstance(self.count, bool) or not isinstance(self.count, int) or self.count < 1:
+            raise ConfigError(f"view count must be a whole number >= 1, got {self.count!r}")
+        if self.camera not in ("half", "paper"):
+            raise ConfigError(f"unknown camera {self.camera!r}; choose half or paper")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ConfigError(f"views seed must be a whole number >= 0, got {self.seed!r}")
+
+    def check_memory(self, what: str = "collect-views") -> None:
+        """Refuse (ConfigError naming ``what``) a collection whose images do not fit in the
+        available memory: :func:`navbench.worldmodel.views.check_views_memory`."""
+        from navbench.geometry import camera_by_name
+        from navbench.worldmodel.views import check_views_memory
+
+        check_views_memory(self.count, camera_by_name(self.camera), what)
+
+
+def collect_views_stage(ctx: StageContext, level: Ref, cfg: ViewsConfig) -> Ref:
+    """Collect views of ``level`` into the cache (the ``views/`` directory of
+    :func:`navbench.worldmodel.views.save_views`)."""
+
+    def compute(d: Path) -> None:
+        from navbench.geometry import camera_by_name
+        from navbench.worldmodel.views import check_views_disk, collect_views, save_views
+
+        # before any rendering: the memory the views need (collect_views checks it again for
+        # library callers) and the disk space they are saved to
+        cfg.check_memory(f"collect-views ({level.name})")
+        check_views_disk(cfg.count, camera_by_name(cfg.camera), d, f"collect-views ({level.name})")
+        update = ctx.progress(f"views {level.name} (seed {cfg.seed})", cfg.count)
+        views = collect_views(load_level_ref(level), cfg.count, camera_by_name(cfg.camera), cfg.seed,
+                              progress=update)
+        save_views(views, d / VIEWS_FILE)
+
+    path, key, cached = ctx.run("collect-views", cfg, {"level": level.key}, compute)
+    return Ref("collect-views", key, path / VIEWS_FILE, cached, level.name)

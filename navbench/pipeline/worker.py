@@ -1,0 +1,61 @@
+"""The worker entry point: run a chunk of episodes of one level (in a pool process, a Ray task
+or the parent itself) and return their records and scores. Workers never write: the parent
+stores trajectories and rows (:mod:`navbench.pipeline.stages.navigation`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the grid's types only annotate here; importing the stages package at the
+    # top would run its __init__, whose navigation module imports this one
+    from navbench.pipeline.stages.grid import ChunkSpec, EpisodeJob
+
+
+#: Estimators that never look at camera frames: their simulator skips rendering.
+FRAMELESS_ESTIMATORS = frozenset({"gt", "dynamics"})
+
+_WORKER_MEMO: dict[tuple, Any] = {}
+
+
+def _worker_inputs(spec: ChunkSpec):
+    """Load (once per worker process) the level, map slice and tasks of a chunk."""
+    memo_key = (spec.level_path, spec.map_path, spec.tasks_path, spec.slice_mode)
+    hit = _WORKER_MEMO.get(memo_key)
+    if hit is None:
+        from navbench.levelio import load_level
+        from navbench.plan.tasks import load_tasks
+        from navbench.worldmodel.grid import load_map, occupancy_slice
+
+        level = load_level(spec.level_path)
+        vmap = load_map(spec.map_path)
+        occ2d, xs, ys = occupancy_slice(vmap, spec.slice_mode)
+        tasks = {t.id: t for t in load_tasks(spec.tasks_path)}
+        hit = (level, vmap, occ2d, xs, ys, tasks)
+        _WORKER_MEMO.clear()  # one level at a time keeps worker memory flat
+        _WORKER_MEMO[memo_key] = hit
+    return hit
+
+
+def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
+    """Worker entry point: run a chunk's episodes; returns ``(job, record, score)`` triples."""
+    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+    from navbench.pipeline.stages.grid import build_episode_config
+    from navbench.nav.episode import run_episode
+    from navbench.nav.metrics import score_episode
+    from navbench.sim.world import Simulator
+    from navbench.track.base import make_estimator
+
+    level, vmap, occ2d, xs, ys, tasks = _worker_inputs(spec)
+    intr = camera_by_name(spec.camera)
+    out = []
+    for job in spec.jobs:
+        c = job.cell
+        ep_cfg = build_episode_config(c.episode)
+        frames = c.estimator not in FRAMELESS_ESTIMATORS
+        sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
+                        camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive)
+        est = make_estimator(c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT,
+                             renderer=None, seed=job.estimator_seed, **c.options)
+        record = run_episode(level, occ2d, xs, ys, tasks[job.task_id], est, sim, config=ep_cfg)
+        out.append((job, record, score_episode(record)))
+    return out
