@@ -88,7 +88,7 @@ def test_report_destination_never_loses_data(project):
 
 
 def test_publish_replaces_only_what_it_published(tmp_path):
-    from navbench.cli.commands._pipeline_ui import REPORT_MARKER, publish
+    from navbench.pipeline.publish import REPORT_MARKER, publish
     from navbench.errors import ConfigError
 
     src = tmp_path / "artifact"

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
+from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.profiles import MAX_WORKERS  # light
 
 
@@ -56,25 +57,15 @@ def register(app: typer.Typer) -> None:
 
         from rich.markup import escape
 
-        from navbench.cli.commands._pipeline_ui import check_report_dir, protected_paths, publish
-        from navbench.cli.commands.run_navigation import navigate, run_and_record
-        from navbench.pipeline.profiles import load_profile, override
-        from navbench.pipeline.stages import report_stage, score_stage
+        from navbench.cli.commands._pipeline_ui import run_with_ui
+        from navbench.pipeline.run import run_profile
 
         t0 = time.perf_counter()
-        prof = override(load_profile(profile), workers=workers)
-        protected = protected_paths(db)
-        check_report_dir(report_dir, "--report", protected)  # before hours of work, not after
-
-        def body(ui, ctx, run_id):
-            _, summary = navigate(ui, ctx, prof, run_id, executor, address)
-            score = score_stage(ctx, summary.cells)
-            report = report_stage(ctx, summary.cells, score)
-            return summary, score, report
-
-        summary, score, report = run_and_record(prof, "all", db, body)
-        _print_scores(score.path)
-        index = publish(report.path.parent, report_dir, protected, "--report") / "index.html"
-        console.print(f"profile [bold]{escape(prof.name)}[/bold]: {summary.stored} new episodes, "
-                      f"{summary.already_done + summary.stored}/{summary.total} stored; "
-                      f"report {escape(str(index))}; {time.perf_counter() - t0:.1f} s")
+        result = run_with_ui(lambda ui: run_profile(profile, db=db, executor=executor, workers=workers,
+                                                    address=address, progress=ui, report_dir=report_dir,
+                                                    command=command_line(), ref_name="all"))
+        _print_scores(result.score.path)
+        nav = result.navigation
+        console.print(f"profile [bold]{escape(result.profile.name)}[/bold]: {nav.stored} new episodes, "
+                      f"{nav.already_done + nav.stored}/{nav.total} stored; "
+                      f"report {escape(str(result.report_path))}; {time.perf_counter() - t0:.1f} s")

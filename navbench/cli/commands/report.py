@@ -25,7 +25,7 @@ def report(
     """
     from rich.markup import escape
 
-    from navbench.cli.commands._pipeline_ui import check_report_dir, mark_report_dir, protected_paths
+    from navbench.pipeline.publish import check_report_dir, mark_report_dir, protected_paths
     from navbench.pipeline.db import ResultsDB
     from navbench.pipeline.report import build_report, store_loaders
 

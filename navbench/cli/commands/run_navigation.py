@@ -8,68 +8,6 @@ from navbench.cli._common import console, parse_list
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
-def navigate(ui, ctx, prof, run_id: int, executor: str = "local", address: str | None = None,
-             chunk_size: int | None = None):
-    """Build (or fetch) every level's inputs, then run the missing episodes with a progress bar.
-
-    Returns ``(level inputs, NavigationSummary)``. Shared by ``run-navigation`` and ``all``.
-    """
-    from navbench.pipeline.executor import make_executor
-    from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
-
-    inputs = [build_level_inputs(ctx, prof, name) for name in dict.fromkeys(prof.levels)]
-    cfg = NavigationConfig(estimators=tuple(prof.estimators), noise=tuple(prof.noise), seeds=prof.seeds,
-                           camera=prof.camera, episode=dict(prof.episode),
-                           estimator_options=dict(prof.estimator_options))
-    bar = {}
-
-    def on_total(n: int) -> None:
-        if n:
-            bar["advance"], _ = ui.counter("episodes", n, unit="ep")
-
-    def on_progress(n: int) -> None:
-        if "advance" in bar:
-            bar["advance"](n)
-
-    with make_executor(executor, prof.workers, address) as ex:
-        summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
-                                       on_progress=on_progress, on_total=on_total)
-    ui.log(f"run-navigation: {summary.total} episodes in {len(summary.cells)} cells: "
-           f"{summary.already_done} already stored, {summary.from_cache} from stored trajectories, "
-           f"{summary.ran} run now")
-    return inputs, summary
-
-
-def run_and_record(prof, ref_name: str, db_url: str | None, body, json_mode: bool = False):
-    """Open the database, start a run row, call ``body(ui, ctx, run_id)``, and close the run as
-    done, interrupted (Ctrl-C) or failed. The artifacts it touched become the cache ref
-    ``<ref_name>-<profile>`` (the latest run of that command and profile; a gc root)."""
-    from navbench.cli.commands._pipeline_ui import PipelineUI, command_line, database, make_context
-    from navbench.config import config_hash, to_jsonable
-
-    with database(db_url) as db:
-        config = to_jsonable(prof)
-        run_id = db.start_run(prof.name, command_line(), config, config_hash(config))
-        ui = PipelineUI(json_mode=json_mode)
-        ctx = make_context(ui, db)
-        status = "failed"
-        try:
-            with ui:
-                result = body(ui, ctx, run_id)
-            status = "done"
-            return result
-        except KeyboardInterrupt:
-            # exit 130 ourselves: the CLI shell would turn it into exit status 0
-            status = "interrupted"
-            ui.console.print("interrupted: rerun the same command to finish; stored episodes are kept",
-                             style="yellow")
-            raise SystemExit(130) from None
-        finally:
-            db.finish_run(run_id, status)
-            if ctx.used:
-                ctx.store.set_ref(f"{ref_name}-{prof.name}", ctx.used)
-
-
 def register(app: typer.Typer) -> None:
     @app.command("run-navigation")
     def run_navigation(
@@ -100,7 +38,9 @@ def register(app: typer.Typer) -> None:
         profile's settings (cached). Resumable: a rerun with the same arguments skips the
         episodes already stored and finishes the rest.
         """
-        from navbench.pipeline.profiles import override, load_profile
+        from navbench.cli.commands._pipeline_ui import command_line, run_with_ui
+        from navbench.pipeline.profiles import load_profile, override
+        from navbench.pipeline.run import run_profile
 
         # an option given but empty (--estimators ',,') is an error, not the profile's list
         prof = override(load_profile(profile), levels=levels or None,
@@ -108,9 +48,9 @@ def register(app: typer.Typer) -> None:
                         noise=None if noise is None else parse_list(noise),
                         tasks=tasks, seeds=seeds, workers=workers, map_source=map_source)
 
-        def body(ui, ctx, run_id):
-            return navigate(ui, ctx, prof, run_id, executor, address, chunk)
-
-        _, summary = run_and_record(prof, "run-navigation", db, body)
+        result = run_with_ui(lambda ui: run_profile(prof, db=db, executor=executor, address=address,
+                                                    chunk_size=chunk, progress=ui, until="navigation",
+                                                    command=command_line(), ref_name="run-navigation"))
+        summary = result.navigation
         console.print(f"stored {summary.stored} new episodes; {summary.already_done + summary.stored}"
                       f"/{summary.total} of the grid are in the database")

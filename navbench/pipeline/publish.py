@@ -1,0 +1,94 @@
+"""Publishing a report folder without ever losing data: a destination is replaced only when it
+is new, empty, or a report navbench published before (it holds :data:`REPORT_MARKER`), and never
+when it is, contains or lies inside the cache, the database, the level or the task folders.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+#: The file that marks a folder as a report navbench published (the only folders it replaces).
+REPORT_MARKER = ".navbench-report"
+
+
+def protected_paths(db_url: str | None = None, cache_root: str | Path = "results/cache",
+                    levels_dir: str | Path = "levels", tasks_dir: str | Path = "tasks") -> list[Path]:
+    """What a report must never be written over, into or around: the stage cache, the SQLite
+    database file, the level and task folders."""
+    from navbench.pipeline.db import resolve_db_url
+
+    paths = [Path(cache_root), Path(levels_dir), Path(tasks_dir)]
+    url = resolve_db_url(db_url)
+    if url.startswith("sqlite:///"):
+        db_file = url[len("sqlite:///"):].split("?", 1)[0]
+        if db_file and db_file != ":memory:":
+            paths.append(Path(db_file).expanduser())
+    return paths
+
+
+def check_report_dir(dest: str | Path, option: str, protected: list[Path]) -> Path:
+    """Refuse a report destination that could lose data; returns ``dest``.
+
+    Allowed: a folder that does not exist yet, an empty folder, or a folder navbench published
+    before (it holds :data:`REPORT_MARKER`). Refused (:class:`ConfigError` naming ``option``): a
+    file, a symbolic link, a non-empty folder without the marker (``results/``, ``.``, a user's
+    folder), and anything that is, contains or lies inside one of the ``protected`` paths.
+    """
+    from navbench.errors import ConfigError
+
+    dest = Path(dest)
+    where = f"{option} {dest}"
+    if dest.is_symlink():
+        raise ConfigError(f"{where}: is a symbolic link; give a real folder")
+    if dest.exists() and not dest.is_dir():
+        raise ConfigError(f"{where}: is a file, not a folder")
+    target = dest.resolve()
+    for p in protected:
+        q = p.resolve()
+        if target == q or q.is_relative_to(target) or target.is_relative_to(q):
+            raise ConfigError(f"{where}: overlaps {p} (the report must not be written into, over "
+                              "or around the cache, the database, levels or tasks); choose "
+                              "another folder, e.g. results/report")
+    if dest.is_dir() and any(dest.iterdir()) and not (dest / REPORT_MARKER).is_file():
+        raise ConfigError(f"{where}: the folder is not empty and is not a report navbench "
+                          f"published (no {REPORT_MARKER} file); choose a new or empty folder")
+    return dest
+
+
+def publish(src_dir: Path, dest: Path, protected: list[Path] | None = None,
+            option: str = "--report") -> Path:
+    """Copy an artifact's files (not its manifest) to ``dest``, replaced atomically.
+
+    Only a folder :func:`check_report_dir` accepts is replaced; the published folder gets the
+    :data:`REPORT_MARKER` file. The temporary folders are new ones (``mkdtemp``) beside ``dest``,
+    so nothing that navbench did not create is removed.
+    """
+    import shutil
+    import tempfile
+
+    protected = protected if protected is not None else protected_paths()
+    dest = check_report_dir(dest, option, protected)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent))
+    try:
+        new, old = work / "new", work / "old"
+        shutil.copytree(src_dir, new, ignore=shutil.ignore_patterns("manifest.json"))
+        mark_report_dir(new)
+        if dest.exists():
+            check_report_dir(dest, option, protected)  # still a published report just before the swap
+            dest.rename(old)
+        try:
+            new.rename(dest)
+        except OSError:
+            if old.exists():
+                old.rename(dest)
+            raise
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return dest
+
+
+def mark_report_dir(folder: Path) -> None:
+    """Mark ``folder`` as a report navbench wrote (so a later report may replace it)."""
+    (Path(folder) / REPORT_MARKER).write_text("written by navbench; the next report replaces this folder\n")

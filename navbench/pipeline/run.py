@@ -1,0 +1,234 @@
+"""Running a profile from Python: :func:`run_profile`, and the run bookkeeping every command shares.
+
+The library entry point behind ``navbench all`` and ``navbench run-navigation``::
+
+    from navbench.pipeline.run import run_profile
+
+    result = run_profile("quick", workers=2)          # builds or reuses every cached stage
+    print(result.scores[["level", "estimator", "noise", "success_rate", "spl"]])
+    print(result.report_path)                          # results/report/index.html
+
+:func:`recorded_run` records a run's start, finish and failure in the results database (one
+row of ``runs``: done, failed or interrupted) and names the artifacts it touched as a cache ref
+(a gc root); ``run-navigation``, ``all``, ``track-eval`` and ``bench`` all go through it.
+
+Progress is reported through a :class:`Progress` (log lines, progress bars); the default
+:class:`SilentProgress` prints nothing, the CLI passes its rich console UI.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol
+
+if TYPE_CHECKING:
+    import pandas
+
+    from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.profiles import Profile
+    from navbench.pipeline.stages import LevelInputs, NavigationSummary, Ref, StageContext
+
+#: How far :func:`run_profile` goes: the episodes only, or also the score table and the report.
+UNTIL = ("navigation", "score", "report")
+
+
+class Progress(Protocol):
+    """Where a run reports what it does (the CLI draws rich bars; a library caller may log)."""
+
+    def log(self, msg: str) -> None:
+        """One line about a stage (``fit-map: cached 1a2b3c``, warnings start with ``warning``)."""
+
+    def bar(self, description: str, total: int | None, unit: str = "it") -> Callable[..., None]:
+        """A bar set by ``update(done, total=None, loss=None)``."""
+
+    def counter(self, description: str, total: int, unit: str = "ep") -> tuple[Callable[[int], None], Callable[[int], None]]:
+        """A bar driven by increments: ``(advance(n), set_total(total))``."""
+
+
+class SilentProgress:
+    """A :class:`Progress` that reports nothing."""
+
+    def log(self, msg: str) -> None:
+        pass
+
+    def bar(self, description: str, total: int | None, unit: str = "it"):
+        return lambda *a, **k: None
+
+    def counter(self, description: str, total: int, unit: str = "ep"):
+        return (lambda n: None), (lambda t: None)
+
+
+def stage_context(progress: Progress | None = None, db: "ResultsDB | None" = None,
+                  force: bool | set[str] = False, cache_root: str | Path = "results/cache",
+                  levels_dir: str | Path = "levels", tasks_dir: str | Path = "tasks") -> "StageContext":
+    """A :class:`~navbench.pipeline.stages.StageContext` reporting through ``progress``.
+
+    ``force``: ``True`` recomputes every stage, a set names the stages to recompute.
+    """
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.pipeline.stages import StageContext
+
+    progress = progress or SilentProgress()
+    force = {"*"} if force is True else set(force or ())
+
+    def bar(desc: str, total: int):
+        unit = "views" if desc.startswith("views") else "steps" if desc.startswith("fit") else "it"
+        return progress.bar(desc, total, unit)
+
+    return StageContext(ArtifactStore(cache_root), db, log=progress.log, progress=bar,
+                        force=frozenset(force), levels_dir=Path(levels_dir), tasks_dir=Path(tasks_dir))
+
+
+@contextmanager
+def open_db(db: "ResultsDB | str | None") -> Iterator["ResultsDB"]:
+    """``db`` itself when it is a :class:`~navbench.pipeline.db.ResultsDB` (left open), else the
+    database at URL ``db`` (``None``: ``$NAVBENCH_DB`` or the default SQLite file), closed after."""
+    from navbench.pipeline.db import ResultsDB
+
+    if isinstance(db, ResultsDB):
+        yield db
+        return
+    handle = ResultsDB(db)
+    try:
+        yield handle
+    finally:
+        handle.close()
+
+
+@contextmanager
+def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
+                 ctx: "StageContext | None" = None, ref_name: str | None = None) -> Iterator[int]:
+    """Record a run around the block; yields its run id.
+
+    The run row starts as ``running``; it ends ``done`` when the block returns, ``interrupted``
+    on Ctrl-C (``KeyboardInterrupt``) and ``failed`` on any other exception, which propagate.
+    With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
+    cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
+    """
+    from navbench.config import config_hash, to_jsonable
+
+    cfg = to_jsonable(config)
+    run_id = db.start_run(profile, command, cfg, config_hash(cfg))
+    status = "failed"
+    try:
+        yield run_id
+        status = "done"
+    except KeyboardInterrupt:
+        status = "interrupted"
+        raise
+    finally:
+        db.finish_run(run_id, status)
+        if ctx is not None and ref_name and ctx.used:
+            ctx.store.set_ref(ref_name, ctx.used)
+
+
+def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str = "local",
+             address: str | None = None, chunk_size: int | None = None,
+             progress: Progress | None = None) -> tuple[list["LevelInputs"], "NavigationSummary"]:
+    """Build (or fetch) every level's inputs, then run the episodes the database lacks.
+
+    Returns ``(level inputs, NavigationSummary)``.
+    """
+    from navbench.pipeline.executor import make_executor
+    from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
+
+    progress = progress or SilentProgress()
+    inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
+    cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
+                           seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
+                           estimator_options=dict(profile.estimator_options))
+    bar: dict[str, Callable[[int], None]] = {}
+
+    def on_total(n: int) -> None:
+        if n:
+            bar["advance"], _ = progress.counter("episodes", n, unit="ep")
+
+    def on_progress(n: int) -> None:
+        if "advance" in bar:
+            bar["advance"](n)
+
+    with make_executor(executor, profile.workers, address) as ex:
+        summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
+                                       on_progress=on_progress, on_total=on_total)
+    ctx.log(f"run-navigation: {summary.total} episodes in {len(summary.cells)} cells: "
+            f"{summary.already_done} already stored, {summary.from_cache} from stored trajectories, "
+            f"{summary.ran} run now")
+    return inputs, summary
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What :func:`run_profile` did.
+
+    ``run_id``: the run's row in the results database; ``profile``: the resolved profile;
+    ``inputs``: each level's level, map and task-set references; ``navigation``: episode counts;
+    ``score`` / ``report``: the score and report artifacts (``None`` when not run);
+    ``report_path``: the published report's ``index.html`` (or the cached one when not
+    published); ``refs``: every (stage, key) the run touched.
+    """
+
+    run_id: int
+    profile: "Profile"
+    inputs: list["LevelInputs"]
+    navigation: "NavigationSummary"
+    score: "Ref | None" = None
+    report: "Ref | None" = None
+    report_path: Path | None = None
+    refs: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def scores(self) -> "pandas.DataFrame":
+        """The score table (one row per level x estimator x noise cell; empty before score)."""
+        import pandas as pd
+
+        if self.score is None:
+            return pd.DataFrame()
+        return pd.read_csv(self.score.path)
+
+
+def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | str | None" = None,
+                executor: str = "local", workers: int | None = None, address: str | None = None,
+                chunk_size: int | None = None, progress: Progress | None = None,
+                until: str = "report", report_dir: str | Path | None = None,
+                cache_root: str | Path = "results/cache", command: str | None = None,
+                ref_name: str = "all") -> RunResult:
+    """Run a profile end to end: make-level -> collect-views -> fit-map -> sample-tasks ->
+    run-navigation -> score -> report, every stage cached and the run recorded.
+
+    ``profile``: a :class:`~navbench.pipeline.profiles.Profile`, or a bundled profile name or a
+    ``.toml`` path. ``db``: a results database or its URL (default ``$NAVBENCH_DB`` or
+    ``sqlite:///results/navbench.db``). ``executor``: ``local`` (a process pool of ``workers``;
+    0 = CPU count, 1 = in this process) or ``ray`` (at ``address``). ``until``: ``navigation``,
+    ``score`` or ``report`` (see :data:`UNTIL`). ``report_dir``: where to publish the report
+    (checked before any work; a folder that is new, empty or a report published before).
+    Episodes already stored are skipped, so a rerun resumes; a run interrupted by Ctrl-C is
+    recorded as interrupted and the ``KeyboardInterrupt`` propagates.
+    """
+    from navbench.errors import ConfigError
+    from navbench.pipeline.profiles import Profile, load_profile, override
+    from navbench.pipeline.publish import check_report_dir, protected_paths, publish
+    from navbench.pipeline.stages import report_stage, score_stage
+
+    if until not in UNTIL:
+        raise ConfigError(f"until: unknown stage {until!r}; choose from {', '.join(UNTIL)}")
+    if report_dir is not None and until != "report":
+        raise ConfigError("report_dir: a report is published only with until='report'")
+    prof = profile if isinstance(profile, Profile) else load_profile(profile)
+    prof = override(prof, workers=workers)
+    protected = protected_paths(db if db is None or isinstance(db, str) else db.url, cache_root)
+    if report_dir is not None:
+        check_report_dir(report_dir, "--report", protected)  # before hours of work, not after
+    progress = progress or SilentProgress()
+    with open_db(db) as rdb:
+        ctx = stage_context(progress, rdb, cache_root=cache_root)
+        command = command or f"run_profile({prof.name!r})"
+        with recorded_run(rdb, prof.name, command, prof, ctx, f"{ref_name}-{prof.name}") as run_id:
+            inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress)
+            score = score_stage(ctx, summary.cells) if until in ("score", "report") else None
+            report = report_stage(ctx, summary.cells, score) if until == "report" else None
+    report_path = report.path if report is not None else None
+    if report is not None and report_dir is not None:
+        report_path = publish(report.path.parent, Path(report_dir), protected, "--report") / report.path.name
+    return RunResult(run_id, prof, inputs, summary, score, report, report_path, list(ctx.used))
