@@ -22,7 +22,7 @@ from navbench.config import to_jsonable
 
 #: Artifact format versions: bump one to invalidate that stage's cache.
 FORMAT = {"make-level": 1, "collect-views": 1, "fit-map": 1, "true-map": 1, "sample-tasks": 1,
-          "episode": 1, "score": 1, "report": 2, "verify": 1}
+          "episode": 1, "score": 1, "report": 2, "verify": 1, "track-eval": 1}
 
 
 VERIFY_FILE = "verified.json"
@@ -94,3 +94,51 @@ def load_record(path: Path, cls: type | None = None) -> Any:
         if f.name not in kw and f.name in dict_fields:
             kw[f.name] = {}
     return cls(**{k: v for k, v in kw.items() if k in names})
+
+
+STUDY_FILE = "study.npz"
+
+
+def save_study(results: dict[str, Any], path: Path) -> None:
+    """Write a tracking study's results (:func:`navbench.track.study.run_tracking_study`: nested
+    dicts whose leaves are arrays or JSON values) to ``path`` as compressed npz: arrays under
+    their ``a/b/c`` key paths, every other leaf as JSON in ``__meta__``."""
+    arrays: dict[str, np.ndarray] = {}
+    meta: dict[str, Any] = {}
+
+    def walk(obj: dict, prefix: str) -> None:
+        for k, v in obj.items():
+            if "/" in str(k):
+                raise ValueError(f"study key {k!r} contains '/'")
+            key = f"{prefix}{k}"
+            if isinstance(v, np.ndarray):
+                arrays[key] = v
+            elif isinstance(v, dict) and v and any(isinstance(x, (np.ndarray, dict)) for x in v.values()):
+                walk(v, key + "/")
+            else:
+                meta[key] = to_jsonable(v)
+
+    walk(results, "")
+    arrays["__meta__"] = np.frombuffer(json.dumps(meta, sort_keys=True).encode(), dtype=np.uint8)
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, **arrays)
+
+
+def load_study(path: Path) -> dict[str, Any]:
+    """Read what :func:`save_study` wrote, as the same nested dict."""
+    out: dict[str, Any] = {}
+
+    def put(key: str, value: Any) -> None:
+        *parents, leaf = key.split("/")
+        node = out
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[leaf] = value
+
+    with np.load(path, allow_pickle=False) as z:
+        for key, value in json.loads(bytes(z["__meta__"]).decode()).items():
+            put(key, value)
+        for name in z.files:
+            if name != "__meta__":
+                put(name, z[name])
+    return out

@@ -128,6 +128,14 @@ def _pos(kind="float") -> Num:
 _SEED = _int(0, MAX_SEED)
 
 
+def _check_map_source(v: Any) -> None:
+    """fit, true, or a map file path (``.npz``; ``{level}`` stands for the level's name)."""
+    _check_str(v)
+    if v not in MAP_SOURCES and not v.endswith(".npz"):
+        raise _Invalid(f"unknown value {v!r}; choose one of {list(MAP_SOURCES)} or give a map file "
+                       "path ending in .npz ({level} stands for the level's name)")
+
+
 def _check_str(v: Any, choices: tuple[str, ...] | None = None) -> None:
     if not isinstance(v, str):
         raise _Invalid(f"expected a string, got {v!r}")
@@ -341,7 +349,7 @@ class Profile:
     noise: tuple[str, ...] = ("mid",)
     seeds: int = 1                   # episode seeds per task
     workers: int = 0                 # local worker processes, 0 = CPU count
-    map_source: str = "fit"          # "fit": fitted world model; "true": voxelized true geometry
+    map_source: str = "fit"          # "fit": fitted world model; "true": voxelized true geometry; or a .npz path
     episode: dict = field(default_factory=dict)    # EpisodeConfig fields
     estimator_options: dict = field(default_factory=dict)  # estimator -> keyword arguments
 
@@ -382,7 +390,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "noise": ("[navigation] noise", lambda v: _check_names(v, "noise level", lambda: list(NOISE_NAMES))),
     "seeds": ("[navigation] seeds", _int(1, MAX_SEEDS).check),
     "workers": ("[navigation] workers", _int(0, MAX_WORKERS).check),
-    "map_source": ("[navigation] map", lambda v: _check_str(v, MAP_SOURCES)),
+    "map_source": ("[navigation] map", lambda v: _check_map_source(v)),
     "episode": ("[navigation.episode]", _check_episode),
     "estimator_options": ("", _check_options),  # its messages name [navigation.options.<estimator>]
 }

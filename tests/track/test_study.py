@@ -13,6 +13,7 @@ from navbench.sim.dynamics import MAX_STEP, MAX_TURN, Control, predict
 from navbench.track.study import TrackingStudyConfig, record_trajectories, run_tracking_study, summarize
 
 from .synth import small_level
+from tests.bad_input.conftest import nb, project  # noqa: F401  (the scratch-project fixture)
 
 
 @pytest.fixture(scope="module")
@@ -59,13 +60,14 @@ def test_config_validation():
         TrackingStudyConfig(estimators=("ours", "ours"))
 
 
-def test_track_eval_cli_prints_json(tmp_path, level):
+def test_track_eval_cli_prints_json(tmp_path, level, monkeypatch):
     from navbench.cli.main import app
     from navbench.levelio import save_level
 
+    monkeypatch.chdir(tmp_path)  # the stage cache is results/cache under the working directory
     path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     result = CliRunner().invoke(app, [
-        "track-eval", str(path), "--trajectories", "2", "--steps", "4", "--json",
+        "track-eval", str(path), "--trajectories", "2", "--steps", "4", "--json", "--map", "true",
         "--estimators", "ours,emission,no-map,dynamics,gt",
         "-o", "emission.steps=3", "-o", "emission.pixels=100", "-o", "ours.optimizer=adam",
         "-o", "ours.adam_steps=10", "--emission-trajectories", "1",
@@ -91,11 +93,12 @@ def test_track_eval_cli_prints_json(tmp_path, level):
     assert ours.loc_rmse_m.median() == pytest.approx(out["ours"]["loc_rmse_m_median"])
 
 
-def test_track_eval_rerun_stores_no_duplicates(tmp_path, level):
+def test_track_eval_rerun_stores_no_duplicates(tmp_path, level, monkeypatch):
     from navbench.cli.main import app
     from navbench.levelio import save_level
     from navbench.pipeline.db import ResultsDB
 
+    monkeypatch.chdir(tmp_path)
     path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json
     url = f"sqlite:///{tmp_path / 'r.db'}"
     args = ["track-eval", str(path), "--trajectories", "2", "--steps", "3", "--json",
@@ -104,9 +107,34 @@ def test_track_eval_rerun_stores_no_duplicates(tmp_path, level):
     second = json.loads(CliRunner().invoke(app, args).stdout)
     assert first["meta"]["stored"]["rows"] == 4 and second["meta"]["stored"]["rows"] == 0
     assert first["meta"]["stored"]["study_key"] == second["meta"]["stored"]["study_key"]
+    # the second run is the cached stage: the same numbers, nothing recomputed
+    assert (first["meta"]["cached"], second["meta"]["cached"]) == (False, True)
+    assert first["meta"]["map_key"] == "none"  # dynamics and gt read no map
+    assert {k: v for k, v in first.items() if k != "meta"} == {k: v for k, v in second.items() if k != "meta"}
     assert len(ResultsDB(url).tracking_frame()) == 4
     none = json.loads(CliRunner().invoke(app, args[:-2] + ["--no-store"]).stdout)
     assert none["meta"]["stored"] is None
+
+
+def test_track_eval_map_fit_uses_the_profiles_fitted_map(project):
+    """``--map fit`` (the default) builds the profile's fitted map through the cached stages and
+    keys the study by it; ``--map true`` and a map file give other keys; a rerun is cached."""
+    args = ["track-eval", "tiny", "--profile", "tiny.toml", "--trajectories", "1", "--steps", "2",
+            "--estimators", "ours,gt", "-o", "ours.optimizer=adam", "-o", "ours.adam_steps=2", "--json"]
+    fit = nb(*args)
+    assert fit.code == 0, fit.output
+    out = json.loads(fit.out)
+    fit_maps = list((project / "results" / "cache" / "fit-map").iterdir())
+    assert [m.name for m in fit_maps] == [out["meta"]["map_key"]]
+    again = json.loads(nb(*args).out)
+    assert again["meta"]["cached"] and again["meta"]["study_key"] == out["meta"]["study_key"]
+    true = json.loads(nb(*args, "--map", "true").out)
+    assert true["meta"]["map_key"] == "true" and true["meta"]["study_key"] != out["meta"]["study_key"]
+    from_file = json.loads(nb(*args, "--map", str(fit_maps[0] / "map.npz")).out)
+    assert from_file["meta"]["map_key"] not in ("true", out["meta"]["map_key"])
+    assert from_file["ours"]["loc_rmse_m_median"] == out["ours"]["loc_rmse_m_median"]  # same map
+    missing = nb(*args, "--map", "nope.npz")
+    assert missing.code == 2 and "--map" in missing.err and "nope.npz" in missing.err
 
 
 def test_track_eval_cli_rejects_bad_options(tmp_path, level):

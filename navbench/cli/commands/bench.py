@@ -100,40 +100,28 @@ def bench(
     """
     import sys
 
-    from navbench.bench import BenchConfig, bench_rows, run_bench
-    from navbench.config import config_hash, to_jsonable
+    from contextlib import ExitStack
 
+    from navbench.bench import BenchConfig, bench_rows, run_bench
     from navbench.levelio import resolve_level
+    from navbench.pipeline.run import open_db, recorded_run
 
     resolve_level(level)  # a bad level name fails here, before a run is recorded
     cfg = BenchConfig(level=level, quick=quick, repeats=repeats, seed=seed, workers=workers,
                       e2e_tasks=e2e_tasks, cache_root=cache, cuda=cuda)
-    rdb, run_id = None, None
-    if store:
-        from navbench.pipeline.db import ResultsDB
-
-        rdb = ResultsDB(db)
-        config = to_jsonable(cfg)
-        run_id = rdb.start_run(profile="bench", command="bench" + (" --quick" if quick else ""),
-                               config=config, config_hash=config_hash(config))
-    status = "failed"
-    try:
+    run_id = None
+    with ExitStack() as stack:
+        if store:
+            rdb = stack.enter_context(open_db(db))
+            run_id = stack.enter_context(recorded_run(rdb, "bench", "bench" + (" --quick" if quick else ""), cfg))
         if as_json:
             result = run_bench(config=cfg, progress=lambda s: err_console.print(f"[dim]bench: {escape(s)}[/]"))
         else:
             with console.status("benchmarking") as st:
                 result = run_bench(config=cfg, progress=lambda s: st.update(f"benchmarking: {escape(s)}"))
-        if rdb is not None:
+        if run_id is not None:
             rdb.add_bench_rows(run_id, bench_rows(result))
             result["run_id"] = run_id
-        status = "done"
-    except KeyboardInterrupt:
-        status = "interrupted"
-        raise
-    finally:
-        if rdb is not None:
-            rdb.finish_run(run_id, status)
-            rdb.close()
     if as_json:
         from navbench.cli._common import print_json
 

@@ -23,8 +23,9 @@ def register(app: typer.Typer) -> None:
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
         address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray; "
                                     "default: start a local Ray instance)."),
-        map_source: str = typer.Option(None, "--map", help="fit (the fitted world model) or true "
-                                       "(the voxelized true geometry) [default: the profile's]."),
+        map_source: str = typer.Option(None, "--map", help="fit (the fitted world model), true "
+                                       "(the voxelized true geometry) or a map file (.npz; {level} "
+                                       "stands for the level's name) [default: the profile's]."),
         chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
                                   "[default: up to 8, a quarter of the work per worker]."),
         profile: str = typer.Option(None, "--profile", help="Profile (quick, paper or a .toml) [default: quick]."),

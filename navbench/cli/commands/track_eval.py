@@ -42,8 +42,11 @@ def register(app: typer.Typer) -> None:
                                        help="Comma-separated estimator names."),
         steps: int = typer.Option(100, "--steps", min=1, max=1_000_000, help="Controls per trajectory."),
         camera: str = typer.Option("half", "--camera", help="half or paper."),
-        map_: str = typer.Option("true", "--map", help="A map file (save_map format) or 'true' for the "
-                                 "voxelised true geometry (an upper bound)."),
+        map_: str = typer.Option("fit", "--map", help="fit: the profile's fitted world model (built "
+                                 "if missing, as in the paper's study); true: the voxelised true "
+                                 "geometry (an upper bound); or a map file (map.npz format)."),
+        profile: str = typer.Option(None, "--profile", help="Profile whose fit settings build the map "
+                                    "with --map fit (quick, paper, six or a .toml) \\[default: quick]."),
         seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
@@ -68,18 +71,17 @@ def register(app: typer.Typer) -> None:
         """
         import time
 
-        from navbench.levelio import resolve_level
-        from navbench.track.study import (
-            STUDY_EMISSION_OPTIONS,
-            TrackingStudyConfig,
-            run_tracking_study,
-            summarize,
-        )
+        from navbench.cli.commands._pipeline_ui import command_line, run_with_ui
+        from navbench.pipeline.artifacts import load_study
+        from navbench.pipeline.profiles import load_profile
+        from navbench.pipeline.run import open_db, recorded_run, stage_context
+        from navbench.pipeline.stages import study_level, study_map, track_eval_stage
+        from navbench.track.study import STUDY_EMISSION_OPTIONS, TrackingStudyConfig, summarize
 
         names = tuple(parse_list(estimators))
         parsed_options = _parse_options(option)
         _check_estimators(names, parsed_options)  # before the level is built or anything recorded
-        lvl = resolve_level(level)
+        prof = load_profile(profile) if map_ == "fit" else None
         opts = {"emission": {} if paper_budget else dict(STUDY_EMISSION_OPTIONS)}
         for name, o in parsed_options.items():
             opts.setdefault(name, {}).update(o)
@@ -87,21 +89,36 @@ def register(app: typer.Typer) -> None:
                                   estimators=names, camera=camera, seed=seed,
                                   estimator_options=opts,
                                   trajectory_limits={"emission": emission_trajectories})
-        vmap = _load_map(map_, lvl) if any(n in ("ours", "emission") for n in names) else None
+        needs_map = any(n in ("ours", "emission") for n in names)
         t0 = time.perf_counter()
-        if json_out:
-            res = run_tracking_study(lvl, vmap, cfg)
-        else:
-            from rich.progress import Progress
 
-            with Progress(console=console, transient=True) as bar:
-                task = bar.add_task(f"tracking on {escape(lvl.name)}", total=trajectories)
-                res = run_tracking_study(lvl, vmap, cfg,
-                                         progress=lambda d, n: bar.update(task, completed=d))
+        def study(ui, rdb):
+            ctx = stage_context(ui, rdb)
+            level_ref = study_level(ctx, level, prof.level_seed if prof else 1)
+            vmap = study_map(ctx, map_, level_ref, prof, needs_map)
+            if rdb is None:
+                ref = track_eval_stage(ctx, level_ref, vmap, cfg)
+                return level_ref, vmap, ref, load_study(ref.path), None
+            config = {"level": level_ref.key, "map": vmap.key, "study": cfg}
+            with recorded_run(rdb, "track-eval", command_line(), config, ctx,
+                              f"track-eval-{level_ref.name}") as run_id:
+                ref = track_eval_stage(ctx, level_ref, vmap, cfg)
+                res = load_study(ref.path)
+                stored = _store(rdb, run_id, res, level_ref.key, vmap.key)
+            return level_ref, vmap, ref, res, stored
+
+        def body(ui):
+            if no_store:
+                return study(ui, None)
+            with open_db(db) as rdb:
+                return study(ui, rdb)
+
+        level_ref, vmap, ref, res, stored = run_with_ui(body, json_mode=json_out)
+        lvl_name = level_ref.name
         summary = summarize(res)
-        stored = None if no_store else _store(res, cfg, lvl, map_, db)
         if json_out:
-            meta = {"level": lvl.name, "map": map_, "camera": camera, "trajectories": trajectories,
+            meta = {"level": lvl_name, "map": map_, "map_key": vmap.key, "study_key": ref.key,
+                    "cached": ref.cached, "camera": camera, "trajectories": trajectories,
                     "steps": steps, "seeds": seeds, "options": opts,
                     "trajectory_limits": cfg.trajectory_limits,
                     "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}
@@ -109,7 +126,7 @@ def register(app: typer.Typer) -> None:
             return
         from rich.table import Table
 
-        t = Table(title=escape(f"tracking on {lvl.name} ({trajectories} x {steps} steps, map {map_}, "
+        t = Table(title=escape(f"tracking on {lvl_name} ({trajectories} x {steps} steps, map {map_}, "
                                f"camera {camera})"))
         for col in ("estimator", "runs", "loc RMSE median (m)", "loc RMSE p99 (m)",
                     "< 0.1 m", "rot RMSE median (deg)", "step median (ms)"):
@@ -140,44 +157,17 @@ def _check_estimators(names: tuple[str, ...], options: dict[str, dict]) -> None:
             raise ConfigError(f"--option: unknown estimator {n!r}; choose from {known}")
 
 
-def _load_map(spec: str, level):
-    from pathlib import Path
-
-    from navbench.errors import ConfigError
-
-    if spec == "true":
-        from navbench.worldmodel.grid import voxelize_level
-
-        return voxelize_level(level)
-    if not Path(spec).is_file():
-        raise ConfigError(f"--map: no such map file {spec!r} (or use 'true')")
-    from navbench.worldmodel.grid import load_map
-
-    return load_map(spec)
-
-
-def _store(res, cfg, level, map_spec: str, db_url: str | None) -> dict:
+def _store(rdb, run_id: int, res: dict, level_key: str, map_key: str) -> dict:
     """Store one row per (estimator, trajectory, seed) in the results database.
 
-    The study key hashes the level file content, the map (file sha256, or 'true') and the study
-    config, so a rerun of the same study adds no duplicate rows.
+    The study key hashes the level's content key, the map's key (fit-map artifact, file sha256,
+    ``true`` or ``none``) and the study config, so a rerun of the same study adds no duplicate
+    rows.
     """
-    import hashlib
-    import sys
-    from pathlib import Path
-
     from navbench.config import config_hash
-    from navbench.levelio import dumps_level
-    from navbench.pipeline.db import ResultsDB
     from navbench.track.study import tracking_rows
 
-    map_key = "true" if map_spec == "true" else hashlib.sha256(Path(map_spec).read_bytes()).hexdigest()
-    level_hash = hashlib.sha256(dumps_level(level).encode()).hexdigest()
-    study_key = config_hash({"stage": "track-eval", "level": level_hash, "map": map_key,
+    study_key = config_hash({"stage": "track-eval", "level": level_key, "map": map_key,
                              "config": res.get("config", {})})
-    rdb = ResultsDB(db_url)
-    run_id = rdb.start_run(profile="track-eval", command=" ".join(["navbench"] + sys.argv[1:]),
-                           config=res.get("config", {}), config_hash=study_key)
     n = rdb.add_tracking_rows(run_id, tracking_rows(res, study_key, map_key))
-    rdb.finish_run(run_id)
     return {"run_id": run_id, "study_key": study_key, "rows": n, "db": rdb.display_url}

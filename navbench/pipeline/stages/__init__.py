@@ -29,6 +29,7 @@ module                 holds
 ``grid``               the navigation grid, seeds and chunks (:class:`NavigationConfig`)
 ``navigation``         run-navigation (the parent loop; workers: :mod:`navbench.pipeline.worker`)
 ``score``, ``report``  the score table and the HTML report of a set of cells
+``track_eval``         the tracking study (appendix E) on a fitted, true or given map
 =====================  ==========================================================
 
 This package re-exports each module's public names, so ``from navbench.pipeline.stages import
@@ -46,15 +47,16 @@ from navbench.pipeline.stages.maps import (MAP_METRIC_KEYS, FitMapConfig, TrueMa
 from navbench.pipeline.stages.navigation import NavigationSummary, run_navigation_stage
 from navbench.pipeline.stages.report import report_stage
 from navbench.pipeline.stages.score import episodes_state_key, score_stage
+from navbench.pipeline.stages.track_eval import StudyMap, study_level, study_map, track_eval_stage
 from navbench.pipeline.stages.tasks import TasksConfig, committed_task_file, sample_tasks_stage
 from navbench.pipeline.stages.views import ViewsConfig, collect_views_stage
 
 __all__ = [
     "Cell", "ChunkSpec", "EpisodeJob", "FitMapConfig", "LevelConfig", "LevelInputs", "MAP_METRIC_KEYS",
     "NavigationConfig", "NavigationSummary", "Ref", "StageContext", "TasksConfig", "TrueMapConfig",
-    "ViewsConfig", "build_episode_config", "build_level_inputs", "chunk_jobs", "collect_views_stage",
+    "StudyMap", "ViewsConfig", "build_episode_config", "build_level_inputs", "chunk_jobs", "collect_views_stage",
     "committed_task_file", "episode_key", "episode_seeds", "episodes_state_key", "fit_map_for_profile",
     "fit_map_stage", "load_level_ref", "make_cells", "make_level_stage", "plan_jobs", "report_stage",
     "resolved_episode_config", "run_navigation_stage", "sample_tasks_stage", "score_stage",
-    "true_map_stage", "verified",
+    "study_level", "study_map", "track_eval_stage", "true_map_stage", "verified",
 ]

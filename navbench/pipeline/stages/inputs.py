@@ -6,11 +6,12 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
-from navbench.errors import ArtifactError
+from navbench.errors import ArtifactError, ConfigError
 from navbench.pipeline.artifacts import VIEWS_FILE
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.level import LevelConfig, make_level_stage
-from navbench.pipeline.stages.maps import FitMapConfig, fit_map_stage, true_map_stage
+from navbench.pipeline.stages.maps import (LEVEL_PLACEHOLDER, FitMapConfig, fit_map_stage, map_file_stage,
+                                           true_map_stage)
 from navbench.pipeline.stages.tasks import TasksConfig, sample_tasks_stage
 from navbench.pipeline.stages.views import ViewsConfig, collect_views_stage
 
@@ -28,11 +29,19 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
                        views_key: str | None = None) -> LevelInputs:
     """Run (or fetch from the cache) make-level -> collect-views (train and held-out) -> fit-map
     -> sample-tasks for one level with ``profile``'s settings. ``views_key`` replaces the
-    training views by a stored collect-views artifact. With ``profile.map_source == "true"``
-    the map is the voxelized true geometry and no views are collected."""
+    training views by a stored collect-views artifact. ``profile.map_source``: ``fit`` (the
+    fitted world model), ``true`` (the voxelized true geometry; no views are collected) or a
+    map file path, where ``{level}`` stands for the level's name (:func:`map_file_stage`)."""
+    source = profile.map_source
+    if source not in ("fit", "true") and LEVEL_PLACEHOLDER not in source and len(set(profile.levels)) > 1:
+        raise ConfigError(f"--map {source}: one map file for {len(set(profile.levels))} levels; "
+                          f"put {LEVEL_PLACEHOLDER} in the path for one map per level")
     level = make_level_stage(ctx, LevelConfig(level_name, profile.level_seed))
-    if profile.map_source == "true":
+    if source == "true":
         return LevelInputs(level, true_map_stage(ctx, level),
+                           sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed)))
+    if source != "fit":
+        return LevelInputs(level, map_file_stage(ctx, level, source),
                            sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed)))
     vmap = fit_map_for_profile(ctx, profile, level, views_key)
     tasks = sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed))

@@ -105,3 +105,35 @@ def true_map_stage(ctx: StageContext, level: Ref, cfg: TrueMapConfig = TrueMapCo
     if ctx.db is not None:
         ctx.db.record_map(level.name, key, metrics)
     return Ref("true-map", key, path / MAP_FILE, cached, level.name, metrics)
+
+
+#: Stands for the level's name in a map file path (one map file per level).
+LEVEL_PLACEHOLDER = "{level}"
+
+
+def map_file_stage(ctx: StageContext, level: Ref, spec: str, what: str = "--map") -> Ref:
+    """A map the user brings: the file ``spec`` (``{level}`` replaced by the level's name), read
+    and checked now (format, arrays, and that its grid covers the level's floor plan), keyed by
+    its sha256. Nothing is copied into the cache; the episodes' cell keys hold the file's key."""
+    import hashlib
+
+    from navbench.levelio import load_level
+    from navbench.worldmodel.grid import load_map
+
+    path = Path(spec.replace(LEVEL_PLACEHOLDER, level.name))
+    if not path.is_file():
+        raise ConfigError(f"{what}: no such map file {str(path)!r} (or use fit or true)")
+    vmap = load_map(path)  # ArtifactError naming the file when it is not a valid map
+    lv = load_level(level.path, name=level.name or None)
+    lo, hi = vmap.spec.lo, vmap.spec.hi
+    tol = 1e-6
+    if lo[0] > tol or lo[1] > tol or hi[0] < lv.width - tol or hi[1] < lv.depth - tol:
+        raise ConfigError(f"{what}: {path}: the map's grid [{lo[0]:g}, {hi[0]:g}] x [{lo[1]:g}, "
+                          f"{hi[1]:g}] m does not cover level {level.name} ([0, {lv.width:g}] x "
+                          f"[0, {lv.depth:g}] m)")
+    key = hashlib.sha256(path.read_bytes()).hexdigest()
+    ctx.log(f"map: {level.name} from {path} ({key[:12]})")
+    meta = {"source": "file", "path": str(path), "steps": 0}
+    if ctx.db is not None:
+        ctx.db.record_map(level.name, key, meta)
+    return Ref("map-file", key, path.resolve(), True, level.name, meta)

@@ -1,0 +1,105 @@
+"""track-eval: the tracking study (paper appendix E) as a cached stage.
+
+Trajectories are recorded once with the study's noise and every estimator is replayed on them
+(:func:`navbench.track.study.run_tracking_study`); the artifact is the study's results
+(``study.npz``, :func:`navbench.pipeline.artifacts.save_study`), keyed by the study config, the
+level's content key and the map's key. The map is one of
+
+* ``fit``: the profile's fitted world model (collect-views -> fit-map, built if missing), the
+  map the paper's tracking study runs on;
+* ``true``: the level's true geometry voxelized on the default grid (an upper bound);
+* a path to a map file (the ``map.npz`` format), keyed by its sha256.
+
+A study whose estimators read no map (``dynamics``, ``gt``) uses none (map key ``none``).
+Step times are measured when the study runs and cached with it: a cached rerun prints the
+numbers of the run that computed them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from navbench.errors import ConfigError
+from navbench.pipeline.artifacts import STUDY_FILE, save_study
+from navbench.pipeline.stages.context import Ref, StageContext
+from navbench.pipeline.stages.inputs import fit_map_for_profile
+from navbench.pipeline.stages.level import LevelConfig, load_level_ref, make_level_stage
+
+#: The ``--map`` choices besides a file path.
+MAP_CHOICES = ("fit", "true")
+
+
+@dataclass(frozen=True)
+class StudyMap:
+    """The map a study replays its estimators on: ``spec`` as given (fit, true, a path or none),
+    its content ``key`` and a loader (``None`` when no estimator reads a map)."""
+
+    spec: str
+    key: str
+    load: Callable[[], Any] | None = None
+
+
+def study_level(ctx: StageContext, level: str, level_seed: int = 1) -> Ref:
+    """The make-level reference of ``level``: a level name (``levels/NAME.json``, or a benchmark
+    level generated and cached) or a path to a level file named after its level."""
+    p = Path(level)
+    if p.suffix == ".json" or p.is_file():
+        if not p.is_file():
+            from navbench.errors import LevelError
+
+            raise LevelError(f"{p}: no such level file")
+        ctx = dataclasses.replace(ctx, levels_dir=p.parent)  # same store, db and used list
+        return make_level_stage(ctx, LevelConfig(p.stem, level_seed))
+    return make_level_stage(ctx, LevelConfig(level, level_seed))
+
+
+def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
+              needed: bool = True) -> StudyMap:
+    """Resolve ``--map`` (:data:`MAP_CHOICES` or a map file path) for ``level``. ``fit`` builds
+    (or fetches) ``profile``'s fitted map; nothing is built when ``needed`` is false."""
+    if not needed:
+        return StudyMap(spec, "none")
+    if spec == "true":
+        def load_true():
+            from navbench.worldmodel.grid import voxelize_level
+
+            return voxelize_level(load_level_ref(level))
+
+        return StudyMap(spec, "true", load_true)
+    if spec == "fit":
+        if profile is None:
+            raise ConfigError("--map fit: needs a profile (its fit settings)")
+        ref = fit_map_for_profile(ctx, profile, level)
+        return StudyMap(spec, ref.key, lambda: _load_map_file(ref.path))
+    path = Path(spec)
+    if not path.is_file():
+        raise ConfigError(f"--map: no such map file {spec!r} (or use {' or '.join(MAP_CHOICES)})")
+    key = hashlib.sha256(path.read_bytes()).hexdigest()
+    return StudyMap(spec, key, lambda: _load_map_file(path))
+
+
+def _load_map_file(path: Path):
+    from navbench.worldmodel.grid import load_map
+
+    return load_map(path)
+
+
+def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
+    """Run (or fetch) the tracking study ``cfg`` (a :class:`~navbench.track.study.TrackingStudyConfig`)
+    on ``level`` with map ``vmap``; ``ref.meta`` holds the map key."""
+
+    def compute(d: Path) -> None:
+        from navbench.track.study import run_tracking_study
+
+        model = vmap.load() if vmap.load is not None else None
+        update = ctx.progress(f"tracking {level.name}", cfg.trajectories)
+        results = run_tracking_study(load_level_ref(level), model, cfg,
+                                     progress=lambda done, total: update(done))
+        save_study(results, d / STUDY_FILE)
+
+    path, key, cached = ctx.run("track-eval", cfg, {"level": level.key, "map": vmap.key}, compute)
+    return Ref("track-eval", key, path / STUDY_FILE, cached, level.name, {"map_key": vmap.key})
