@@ -73,7 +73,7 @@ def register(app: typer.Typer) -> None:
             STUDY_EMISSION_OPTIONS,
             TrackingStudyConfig,
             run_tracking_study,
-            summarize,
+            summarise,
         )
 
         names = tuple(parse_list(estimators))
@@ -98,7 +98,7 @@ def register(app: typer.Typer) -> None:
                 task = bar.add_task(f"tracking on {escape(lvl.name)}", total=trajectories)
                 res = run_tracking_study(lvl, vmap, cfg,
                                          progress=lambda d, n: bar.update(task, completed=d))
-        summary = summarize(res)
+        summary = summarise(res)
         stored = None if no_store else _store(res, cfg, lvl, map_, db)
         if json_out:
             meta = {"level": lvl.name, "map": map_, "camera": camera, "trajectories": trajectories,
