@@ -36,6 +36,10 @@ def _clean_json(obj: Any) -> Any:
 
 
 def _one_line(exc: BaseException) -> str:
+    """The first line of an error's message: of the driver's own error when SQLAlchemy wraps
+    one (``DBAPIError.orig``)."""
+    # getattr: ``exc`` may be any exception (ArgumentError, ValueError, ImportError...); only
+    # SQLAlchemy's DBAPIError has ``orig``, and even there it may be None.
     orig = getattr(exc, "orig", None) or exc
     text = str(orig).strip().splitlines()
     return text[0] if text else type(orig).__name__
@@ -78,11 +82,11 @@ def episode_row_from_score(cell_key: str, meta: dict, score: Any, traj_key: str 
     """One ``episodes`` row (for :meth:`ResultsDB.add_episodes`) from an episode's score.
 
     ``meta``: ``level, map_key, task_set_key, estimator, estimator_options (dict), noise, seed,
-    task_id, timings_ms`` (component name -> (T,) per-step milliseconds) and optionally
-    ``end_reason`` and ``collided`` (taken from ``score`` when it has them). ``score`` is an
-    ``EpisodeScore`` (success, path_length, optimal_length, spl_term, loc_rmse_m, rot_rmse_deg,
-    steps). Timings are stored as per-component medians; ``step_ms`` is the median over steps of
-    the per-step sum of all components (or the sum of the medians when their lengths differ).
+    task_id, timings_ms`` (component name of :data:`~navbench.nav.timing.TIMING_KEYS` -> (T,)
+    per-step milliseconds). ``score`` is a :class:`navbench.nav.metrics.EpisodeScore` (success,
+    path_length, optimal_length, spl_term, loc_rmse_m, rot_rmse_deg, steps, end_reason,
+    collided). Timings are stored as per-component medians; ``step_ms`` is the median over steps
+    of the per-step sum of all components (or the sum of the medians when their lengths differ).
     """
     timings = meta.get("timings_ms") or {}
     row: dict[str, Any] = {
@@ -100,14 +104,12 @@ def episode_row_from_score(cell_key: str, meta: dict, score: Any, traj_key: str 
         "path_length": float(score.path_length),
         "optimal_length": float(score.optimal_length),
         "steps": int(score.steps),
-        "end_reason": getattr(score, "end_reason", None) or meta.get("end_reason"),
-        "collided": getattr(score, "collided", meta.get("collided")),
+        "end_reason": score.end_reason,
+        "collided": bool(score.collided),
         "loc_rmse_m": score.loc_rmse_m,
         "rot_rmse_deg": score.rot_rmse_deg,
         "traj_key": traj_key,
     }
-    if row["collided"] is not None:
-        row["collided"] = bool(row["collided"])
     for name, column in zip(TIMING_KEYS, TIMING_COLUMNS):
         row[column] = _median(timings[name]) if name in timings else None
     arrays = [np.asarray(v, dtype=float).ravel() for v in timings.values()]
