@@ -30,7 +30,7 @@ from navbench.bench.core import (
     Stats,
     Target,
 )
-from navbench.geometry import CAMERAS
+from navbench.geometry import CAMERA_NAMES, CAMERAS
 
 TARGETS: tuple[Target, ...] = (
     Target("render_ms_paper", "<=", 10.0, "map render, paper camera <= 10 ms"),
@@ -43,7 +43,6 @@ TARGETS: tuple[Target, ...] = (
            "fit-map 10 000 steps <= 3 min (extrapolated from one step)"),
 )
 
-CAMERA_NAMES = ("half", "paper")
 TRACKERS = (  # (key part, estimator name, options, label)
     ("ours", "ours", {}, "ours, default"),
     ("ours_adam", "ours", {"optimizer": "adam"}, "ours, Adam 100x1000 px"),

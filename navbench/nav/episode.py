@@ -35,9 +35,9 @@ import numpy as np
 from navbench.errors import ConfigError
 from navbench.geometry import AGENT_LENGTH
 from navbench.nav.controller import ControllerConfig, controller_step
+from navbench.nav.timing import TIMING_KEYS
 from navbench.plan.astar import PlannerConfig, PlannerMap, cached_planner_map, plan_on_map
 
-TIMING_KEYS = ("sim", "render", "estimate", "plan", "control")
 END_REASONS = ("reached", "step-limit", "stuck", "no-plan")
 
 

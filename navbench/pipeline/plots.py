@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 import numpy as np
 
 from navbench.geometry import AGENT_LENGTH
+from navbench.nav.timing import TIMING_KEYS
 from navbench.pipeline.score import ESTIMATOR_ORDER, NOISE_ORDER, _order_key
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -26,7 +27,7 @@ PAPER_SPL: dict[tuple[str, str], float] = {
     ("mid", "ours"): 0.79, ("mid", "no-map"): 0.51, ("mid", "dynamics"): 0.52,
     ("high", "ours"): 0.46, ("high", "no-map"): 0.37, ("high", "dynamics"): 0.33,
 }
-COMPONENTS = ("sim", "render", "estimate", "plan", "control")
+#: Bar colour of each per-step timing component (:data:`navbench.nav.timing.TIMING_KEYS`).
 COMPONENT_COLOURS = {"sim": "#9e9e9e", "render": "#1f77b4", "estimate": "#d62728",
                      "plan": "#2ca02c", "control": "#ff7f0e"}
 _ESTIMATOR_COLOURS = {"ours": "#d62728", "no-map": "#1f77b4", "dynamics": "#7f7f7f",
@@ -139,13 +140,14 @@ def plot_rot_cdf(ax, groups: Mapping[str, Sequence[float]], styles=None) -> None
 def plot_step_runtime(ax, runtime: "pandas.DataFrame") -> None:
     """Fig. 4c: per-step time by component as stacked horizontal bars, one per estimator.
 
-    ``runtime``: index = estimator labels, columns = a subset of :data:`COMPONENTS` (median ms
-    per step) and optionally ``step_ms`` (the median total, annotated with its rate in Hz).
+    ``runtime``: index = estimator labels, columns = a subset of
+    :data:`~navbench.nav.timing.TIMING_KEYS` (median ms per step) and optionally ``step_ms``
+    (the median total, annotated with its rate in Hz).
     """
     labels = list(runtime.index)
     y = np.arange(len(labels))
     left = np.zeros(len(labels))
-    for comp in COMPONENTS:
+    for comp in TIMING_KEYS:
         if comp not in runtime.columns:
             continue
         vals = np.nan_to_num(runtime[comp].to_numpy(dtype=float))

@@ -40,10 +40,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 from navbench.errors import ConfigError
+from navbench.geometry import CAMERA_NAMES
 
 PROFILES_DIR = Path(__file__).resolve().parent.parent / "profiles"
 DEFAULT_PROFILE = "quick"
-CAMERA_NAMES = ("half", "paper")
 NOISE_NAMES = ("none", "low", "mid", "high", "tracking")
 MAP_SOURCES = ("fit", "true")
 

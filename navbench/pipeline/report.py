@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
+from navbench.nav.timing import TIMING_COLUMNS
 from navbench.pipeline.score import (
     ESTIMATOR_ORDER,
     NOISE_ORDER,
@@ -137,8 +138,7 @@ def _runtime_table(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame") -
 
     if not episodes.empty:
         f = episodes.assign(estimator=estimator_variants(episodes))
-        cols = [c for c in ("sim_ms", "render_ms", "estimate_ms", "plan_ms", "control_ms", "step_ms")
-                if c in f.columns]
+        cols = [c for c in (*TIMING_COLUMNS, "step_ms") if c in f.columns]
         t = f.groupby("estimator")[cols].median()
         t.columns = [c[:-3] for c in cols]
     elif not tracking.empty:

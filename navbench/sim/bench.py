@@ -71,7 +71,7 @@ def time_step(level: Level, repeats: int = 1000, warmup: int = 10, noise="low", 
     return out
 
 
-def summarize(times_ms: list[float]) -> dict[str, float]:
+def summarise(times_ms: list[float]) -> dict[str, float]:
     """``{"n", "median", "p10", "p90", "min"}`` of a timing list (milliseconds)."""
     a = np.asarray(times_ms, dtype=np.float64)
     if a.size == 0:

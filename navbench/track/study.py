@@ -235,7 +235,7 @@ def _config_dict(config: TrackingStudyConfig) -> dict:
     return to_jsonable(config)
 
 
-def summarize(results: dict[str, Any], threshold_m: float = 0.1) -> dict[str, dict[str, float]]:
+def summarise(results: dict[str, Any], threshold_m: float = 0.1) -> dict[str, dict[str, float]]:
     """Per-estimator summary of :func:`run_tracking_study` results (plain floats).
 
     Keys: ``loc_rmse_m_median``, ``loc_rmse_m_p99``, ``loc_rmse_m_max``, ``rot_rmse_deg_median``,

@@ -16,20 +16,10 @@ import numpy as np
 import pytest
 
 from navbench.errors import DatabaseError
+from navbench.nav.metrics import EpisodeScore
 from navbench.pipeline.db import ResultsDB, episode_row_from_score
 
 PG_URL = os.environ.get("NAVBENCH_TEST_PG_URL")
-
-
-@dataclass
-class FakeScore:
-    success: bool
-    path_length: float
-    optimal_length: float
-    spl_term: float
-    loc_rmse_m: float
-    rot_rmse_deg: float
-    steps: int
 
 
 @dataclass(frozen=True)
@@ -173,8 +163,8 @@ def test_episode_row_from_score_round_trip(db):
                "control": np.array([0.5, 0.5, 0.5])}
     meta = dict(level="l1", map_key="m", task_set_key="ts", estimator="ours",
                 estimator_options={"lr": 0.02}, noise="mid", seed=np.int64(3), task_id=7,
-                timings_ms=timings, end_reason="reached", collided=False)
-    score = FakeScore(True, 4.0, 3.6, 0.9, np.float64(0.04), 1.5, 3)
+                timings_ms=timings)
+    score = EpisodeScore(True, 4.0, 3.6, 0.9, np.float64(0.04), 1.5, 3, "reached", False)
     row = episode_row_from_score("cell", meta, score, "trajkey")
     assert row["sim_ms"] == 2.0 and row["render_ms"] == 10.0 and row["estimate_ms"] == 6.0
     assert row["plan_ms"] == 0.0 and row["control_ms"] == 0.5
@@ -183,7 +173,7 @@ def test_episode_row_from_score_round_trip(db):
     assert db.add_episodes(rid, [row]) == 1
     got = db.episodes_frame().iloc[0]
     assert got["cell_key"] == "cell" and got["task_id"] == 7 and got["seed"] == 3
-    assert got["traj_key"] == "trajkey" and got["end_reason"] == "reached"
+    assert got["traj_key"] == "trajkey" and got["end_reason"] == "reached" and not bool(got["collided"])
     assert got["loc_rmse_m"] == pytest.approx(0.04) and got["step_ms"] == pytest.approx(19.5)
     assert got["estimator_options"] == {"lr": 0.02} and bool(got["success"])
 

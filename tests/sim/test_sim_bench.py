@@ -6,7 +6,7 @@ import numpy as np
 
 from navbench.geometry import AGENT_LENGTH, Intrinsics
 from navbench.level import distance_to_solids
-from navbench.sim.bench import bench_poses, summarize, time_render, time_step
+from navbench.sim.bench import bench_poses, summarise, time_render, time_step
 
 from .fixtures import rooms
 
@@ -22,7 +22,7 @@ def test_bench_functions_return_one_time_per_repeat():
     np.testing.assert_array_equal(p, bench_poses(level, 10, seed=1))
 
 
-def test_summarize():
-    s = summarize([3.0, 1.0, 2.0])
+def test_summarise():
+    s = summarise([3.0, 1.0, 2.0])
     assert s["n"] == 3 and s["median"] == 2.0 and s["min"] == 1.0
-    assert math.isnan(summarize([])["median"])
+    assert math.isnan(summarise([])["median"])

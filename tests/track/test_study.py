@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from navbench.errors import ConfigError
 from navbench.sim.dynamics import MAX_STEP, MAX_TURN, Control, predict
-from navbench.track.study import TrackingStudyConfig, record_trajectories, run_tracking_study, summarize
+from navbench.track.study import TrackingStudyConfig, record_trajectories, run_tracking_study, summarise
 
 from .synth import small_level
 from tests.bad_input.conftest import nb, project  # noqa: F401  (the scratch-project fixture)
@@ -47,7 +47,7 @@ def test_gt_and_dynamics_replay_exactly(level):
         for t, u in enumerate(res["trajectories"]["controls"][n]):
             pose = predict(pose, Control(*u))
             assert np.allclose(dyn[n, t + 1], pose, atol=1e-12)
-    s = summarize(res)
+    s = summarise(res)
     assert set(s) == {"gt", "dynamics", "no-map"}
     assert s["gt"]["frac_loc_rmse_below_0_1m"] == 1.0
     assert res["estimators"]["no-map"]["step_ms"].shape == (2, 8)

@@ -76,7 +76,7 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.profiles import load_profile
         from navbench.pipeline.run import open_db, recorded_run, stage_context
         from navbench.pipeline.stages import study_level, study_map, track_eval_stage
-        from navbench.track.study import STUDY_EMISSION_OPTIONS, TrackingStudyConfig, summarize
+        from navbench.track.study import STUDY_EMISSION_OPTIONS, TrackingStudyConfig, summarise
 
         names = tuple(parse_list(estimators))
         parsed_options = _parse_options(option)
@@ -115,7 +115,7 @@ def register(app: typer.Typer) -> None:
 
         level_ref, vmap, ref, res, stored = run_with_ui(body, json_mode=json_out)
         lvl_name = level_ref.name
-        summary = summarize(res)
+        summary = summarise(res)
         if json_out:
             meta = {"level": lvl_name, "map": map_, "map_key": vmap.key, "study_key": ref.key,
                     "cached": ref.cached, "camera": camera, "trajectories": trajectories,

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from navbench.errors import ConfigError
+from navbench.geometry import CAMERA_NAMES
 from navbench.pipeline.artifacts import VIEWS_FILE
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.level import load_level_ref
@@ -24,8 +25,8 @@ class ViewsConfig:
     def __post_init__(self):
         if isinstance(self.count, bool) or not isinstance(self.count, int) or self.count < 1:
             raise ConfigError(f"view count must be a whole number >= 1, got {self.count!r}")
-        if self.camera not in ("half", "paper"):
-            raise ConfigError(f"unknown camera {self.camera!r}; choose half or paper")
+        if self.camera not in CAMERA_NAMES:
+            raise ConfigError(f"unknown camera {self.camera!r}; choose {' or '.join(CAMERA_NAMES)}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ConfigError(f"views seed must be a whole number >= 0, got {self.seed!r}")
 

@@ -1,403 +1,60 @@
-"""The results database: runs, levels, maps, task sets, episodes, tracking and bench rows.
-
-One small storage interface (:class:`ResultsDB`) for every stage and command: they never build
-SQL themselves. Any SQLAlchemy URL works; the default is ``sqlite:///results/navbench.db``
-relative to the current working directory (``results/`` is created), overridden by the
-``NAVBENCH_DB`` environment variable or an explicit URL (the CLI's ``--db``). SQLite and
-PostgreSQL (``postgresql+psycopg://user@host/db``, extra ``navbench[postgres]``) are tested.
-
-Tables (SQLAlchemy 2 declarative models below):
-
-* ``runs`` -- one row per pipeline invocation: profile, command, resolved config (JSON) and its
-  hash, navbench version, git commit (null outside a git checkout), host, CPU, start/finish
-  times (UTC) and status (``running`` -> ``done`` / ``failed`` / ``interrupted``), and the
-  process that runs it (``pid`` and ``proc_start``, see :func:`process_start_token`). A run
-  whose process died without closing it (``kill -9``, power loss) becomes ``interrupted`` the
-  next time any command opens the database on its host (:meth:`ResultsDB.mark_dead_runs`);
-  its ``finished`` stays empty: when it died is unknown.
-* ``levels`` -- level name, content hash, meta; unique on (name, content_hash).
-* ``maps`` -- a fitted world model (unique map key) with its quality metrics.
-* ``task_sets`` / ``tasks`` -- the navigation tasks of a level (unique task set key; a task is
-  unique on (task_set_key, task_id)).
-* ``episodes`` -- one navigation episode's score, unique on (cell_key, task_id, seed), with the
-  medians of the per-step component timings and a pointer (cache key) to its trajectory.
-* ``tracking`` -- one tracked trajectory of the tracking study (Fig. 4), unique on
-  (study_key, estimator, trajectory_id, seed).
-* ``bench`` -- one measured benchmark metric, unique on (run_id, metric, device).
-
-Duplicate rows are impossible: every ``add_*``/``record_*`` inserts with the dialect's
-``ON CONFLICT DO NOTHING`` (SQLite, PostgreSQL; other dialects select the existing keys first,
-in the same transaction) and reports how many rows were new. The first stored value of a key
-therefore stays; a rerun skips the keys :meth:`ResultsDB.done_episode_keys` reports.
-
-Schema changes: ``SCHEMA_VERSION`` counts incompatible layouts (a database of another version
-is refused). Compatible additions are nullable columns that opening a database adds when
-missing (``_ADDED_COLUMNS``; older navbench versions ignore them). Tables and columns are
-created under a lock (SQLite ``BEGIN IMMEDIATE``, a PostgreSQL advisory lock), so commands
-that open a fresh database at the same moment do not trip over each other.
-"""
+"""The :class:`ResultsDB` storage interface: opening (and creating) a database, and every
+write and query the stages and commands make. See :mod:`navbench.pipeline.db` for the tables
+and the rules (no duplicate rows, the first stored value of a key stays)."""
 
 from __future__ import annotations
 
-import math
 import os
-import platform
 import socket
-import subprocess
 import time
-from datetime import datetime, timezone
-from pathlib import Path
 from contextlib import contextmanager
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Iterator
 
-import numpy as np
-from sqlalchemy import (
-    JSON,
-    Boolean,
-    DateTime,
-    Float,
-    ForeignKey,
-    Integer,
-    String,
-    Text,
-    UniqueConstraint,
-    create_engine,
-    event,
-    inspect,
-    select,
-    tuple_,
-    update,
-)
+from sqlalchemy import DateTime, Float, create_engine, event, inspect, select, tuple_, update
 from sqlalchemy.engine import Connection, Engine, make_url
 from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
-from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 from navbench.errors import DatabaseError
+from navbench.pipeline.db.rows import (
+    _apply_filters,
+    _clean,
+    _clean_json,
+    _one_line,
+    _task_fields,
+    _utcnow,
+    cpu_description,
+    git_commit,
+)
+from navbench.pipeline.db.schema import (
+    _ADDED_COLUMNS,
+    _BENCH_FIELDS,
+    _BENCH_REQUIRED,
+    _EPISODE_FIELDS,
+    _EPISODE_REQUIRED,
+    _MAP_METRICS,
+    _PG_SCHEMA_LOCK,
+    _TRACKING_FIELDS,
+    _TRACKING_REQUIRED,
+    RUN_STATUSES,
+    SCHEMA_VERSION,
+    Base,
+    BenchRow,
+    EpisodeRow,
+    LevelRow,
+    MapRow,
+    MetaRow,
+    Run,
+    TaskRow,
+    TaskSetRow,
+    TrackingRow,
+    _add_missing_columns,
+    resolve_db_url,
+)
 from navbench.pipeline.executor import pid_alive, process_start_token
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
-
-DEFAULT_DB_URL = "sqlite:///results/navbench.db"
-#: Version of the table layout; a database written with another version is refused.
-SCHEMA_VERSION = 1
-DB_ENV = "NAVBENCH_DB"
-TIMING_COMPONENTS = ("sim", "render", "estimate", "plan", "control")
-RUN_STATUSES = ("running", "done", "failed", "interrupted")
-
-
-def _utcnow() -> datetime:
-    return datetime.now(timezone.utc)
-
-
-# --------------------------------------------------------------------------------------------
-# Models
-# --------------------------------------------------------------------------------------------
-
-
-class Base(DeclarativeBase):
-    pass
-
-
-class MetaRow(Base):
-    """Key/value facts about the database itself (``schema_version``)."""
-
-    __tablename__ = "navbench_meta"
-    key: Mapped[str] = mapped_column(String(64), primary_key=True)
-    value: Mapped[str] = mapped_column(String(256))
-
-
-class Run(Base):
-    __tablename__ = "runs"
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    profile: Mapped[str] = mapped_column(String(512))  # a name or a path to a profile file
-    command: Mapped[str] = mapped_column(Text)
-    config: Mapped[dict] = mapped_column(JSON)
-    config_hash: Mapped[str] = mapped_column(String(128))
-    navbench_version: Mapped[str] = mapped_column(String(32))
-    git_commit: Mapped[str | None] = mapped_column(String(64), nullable=True)
-    host: Mapped[str] = mapped_column(String(256))
-    cpu: Mapped[str] = mapped_column(String(512))
-    started: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-    finished: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
-    status: Mapped[str] = mapped_column(String(16))
-    # added within schema version 1 (nullable, see _ADDED_COLUMNS): the process running it
-    pid: Mapped[int | None] = mapped_column(Integer, nullable=True)
-    proc_start: Mapped[str | None] = mapped_column(String(128), nullable=True)
-
-
-#: Nullable columns added to a version-1 layout after it shipped: (table, column).
-_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"))
-#: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
-_PG_SCHEMA_LOCK = 0x6E617662656E6368
-
-
-class LevelRow(Base):
-    __tablename__ = "levels"
-    __table_args__ = (UniqueConstraint("name", "content_hash", name="uq_levels_name_hash"),)
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    name: Mapped[str] = mapped_column(String(128))
-    content_hash: Mapped[str] = mapped_column(String(64))
-    meta: Mapped[dict] = mapped_column(JSON)
-    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-
-
-class MapRow(Base):
-    __tablename__ = "maps"
-    __table_args__ = (UniqueConstraint("map_key", name="uq_maps_key"),)
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    level: Mapped[str] = mapped_column(String(128))
-    map_key: Mapped[str] = mapped_column(String(128))
-    depth_mae_m: Mapped[float | None] = mapped_column(Float, nullable=True)
-    rgb_l1: Mapped[float | None] = mapped_column(Float, nullable=True)
-    slice_precision: Mapped[float | None] = mapped_column(Float, nullable=True)
-    slice_recall: Mapped[float | None] = mapped_column(Float, nullable=True)
-    fit_seconds: Mapped[float | None] = mapped_column(Float, nullable=True)
-    steps: Mapped[int | None] = mapped_column(Integer, nullable=True)
-    metrics: Mapped[dict] = mapped_column(JSON)  # everything given, including the above
-    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-
-
-class TaskSetRow(Base):
-    __tablename__ = "task_sets"
-    __table_args__ = (UniqueConstraint("task_set_key", name="uq_task_sets_key"),)
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    level: Mapped[str] = mapped_column(String(128))
-    task_set_key: Mapped[str] = mapped_column(String(128))
-    count: Mapped[int] = mapped_column(Integer)
-    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-
-
-class TaskRow(Base):
-    __tablename__ = "tasks"
-    __table_args__ = (UniqueConstraint("task_set_key", "task_id", name="uq_tasks_key_id"),)
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    task_set_key: Mapped[str] = mapped_column(String(128))
-    level: Mapped[str] = mapped_column(String(128))
-    task_id: Mapped[int] = mapped_column(Integer)
-    start_x: Mapped[float] = mapped_column(Float)  # metres, world frame
-    start_y: Mapped[float] = mapped_column(Float)
-    start_theta: Mapped[float] = mapped_column(Float)  # rad
-    target_x: Mapped[float] = mapped_column(Float)
-    target_y: Mapped[float] = mapped_column(Float)
-    optimal_length: Mapped[float] = mapped_column(Float)  # metres
-
-
-class EpisodeRow(Base):
-    __tablename__ = "episodes"
-    __table_args__ = (UniqueConstraint("cell_key", "task_id", "seed", name="uq_episodes_cell_task_seed"),)
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
-    cell_key: Mapped[str] = mapped_column(String(128), index=True)
-    level: Mapped[str] = mapped_column(String(128))
-    map_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
-    task_set_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
-    task_id: Mapped[int] = mapped_column(Integer)
-    estimator: Mapped[str] = mapped_column(String(64))
-    estimator_options: Mapped[dict] = mapped_column(JSON)
-    noise: Mapped[str] = mapped_column(String(32))
-    seed: Mapped[int] = mapped_column(Integer)
-    success: Mapped[bool] = mapped_column(Boolean)
-    spl_term: Mapped[float] = mapped_column(Float)
-    path_length: Mapped[float] = mapped_column(Float)  # metres
-    optimal_length: Mapped[float] = mapped_column(Float)  # metres
-    steps: Mapped[int] = mapped_column(Integer)
-    end_reason: Mapped[str | None] = mapped_column(String(32), nullable=True)
-    collided: Mapped[bool | None] = mapped_column(Boolean, nullable=True)
-    loc_rmse_m: Mapped[float | None] = mapped_column(Float, nullable=True)
-    rot_rmse_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
-    sim_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # per-step medians
-    render_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
-    estimate_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
-    plan_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
-    control_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
-    step_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # median of per-step sums
-    traj_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
-    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-
-
-class TrackingRow(Base):
-    __tablename__ = "tracking"
-    __table_args__ = (
-        UniqueConstraint("study_key", "estimator", "trajectory_id", "seed", name="uq_tracking_key"),
-    )
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
-    study_key: Mapped[str] = mapped_column(String(128))
-    level: Mapped[str] = mapped_column(String(128))
-    map_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
-    estimator: Mapped[str] = mapped_column(String(64))
-    estimator_options: Mapped[dict] = mapped_column(JSON)
-    noise: Mapped[str | None] = mapped_column(String(32), nullable=True)
-    trajectory_id: Mapped[int] = mapped_column(Integer)
-    seed: Mapped[int] = mapped_column(Integer)
-    steps: Mapped[int | None] = mapped_column(Integer, nullable=True)
-    loc_rmse_m: Mapped[float | None] = mapped_column(Float, nullable=True)
-    rot_rmse_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
-    step_ms_median: Mapped[float | None] = mapped_column(Float, nullable=True)
-    render_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # per-step medians
-    estimate_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
-    traj_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
-    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-
-
-class BenchRow(Base):
-    __tablename__ = "bench"
-    __table_args__ = (UniqueConstraint("run_id", "metric", "device", name="uq_bench_run_metric_device"),)
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
-    host: Mapped[str] = mapped_column(String(256))
-    cpu: Mapped[str] = mapped_column(String(256))
-    navbench_version: Mapped[str] = mapped_column(String(32))
-    metric: Mapped[str] = mapped_column(String(128))
-    value: Mapped[float] = mapped_column(Float)
-    unit: Mapped[str] = mapped_column(String(32))
-    device: Mapped[str] = mapped_column(String(64))  # "cpu", "cuda:0"...
-    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-
-
-# Caller-supplied columns of each add_* (everything else is filled in here).
-_EPISODE_FIELDS = (
-    "cell_key", "level", "map_key", "task_set_key", "task_id", "estimator", "estimator_options",
-    "noise", "seed", "success", "spl_term", "path_length", "optimal_length", "steps", "end_reason",
-    "collided", "loc_rmse_m", "rot_rmse_deg", "sim_ms", "render_ms", "estimate_ms", "plan_ms",
-    "control_ms", "step_ms", "traj_key",
-)
-_EPISODE_REQUIRED = (
-    "cell_key", "level", "task_id", "estimator", "noise", "seed", "success", "spl_term",
-    "path_length", "optimal_length", "steps",
-)
-_TRACKING_FIELDS = (
-    "study_key", "level", "map_key", "estimator", "estimator_options", "noise", "trajectory_id",
-    "seed", "steps", "loc_rmse_m", "rot_rmse_deg", "step_ms_median", "render_ms", "estimate_ms",
-    "traj_key",
-)
-_TRACKING_REQUIRED = ("study_key", "level", "estimator", "trajectory_id", "seed")
-_BENCH_FIELDS = ("metric", "value", "unit", "device", "host", "cpu", "navbench_version")
-_BENCH_REQUIRED = ("metric", "value", "unit")
-_MAP_METRICS = ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "fit_seconds", "steps")
-
-
-# --------------------------------------------------------------------------------------------
-# Helpers
-# --------------------------------------------------------------------------------------------
-
-
-def _clean(value: Any) -> Any:
-    """numpy scalars -> Python; NaN/inf floats -> None (stored as NULL everywhere)."""
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def _clean_json(obj: Any) -> Any:
-    from navbench.config import to_jsonable
-
-    return to_jsonable(obj if obj is not None else {})
-
-
-def _one_line(exc: BaseException) -> str:
-    orig = getattr(exc, "orig", None) or exc
-    text = str(orig).strip().splitlines()
-    return text[0] if text else type(orig).__name__
-
-
-def git_commit(cwd: str | Path | None = None) -> str | None:
-    """HEAD commit of the git checkout holding ``cwd`` (default: the current directory), else None."""
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True, text=True, timeout=5,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    sha = out.stdout.strip()
-    return sha if out.returncode == 0 and len(sha) == 40 else None
-
-
-def cpu_description() -> str:
-    """CPU model name (from /proc/cpuinfo on Linux) and logical core count."""
-    name = ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
-            for line in f:
-                if line.lower().startswith("model name"):
-                    name = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    name = name or platform.processor() or platform.machine() or "unknown"
-    return f"{name} ({os.cpu_count() or '?'} threads)"
-
-
-def resolve_db_url(url: str | None = None) -> str:
-    """``url``, else ``$NAVBENCH_DB``, else ``sqlite:///results/navbench.db``."""
-    return url or os.environ.get(DB_ENV) or DEFAULT_DB_URL
-
-
-def _median(values: Any) -> float | None:
-    arr = np.asarray(values, dtype=float).ravel()
-    arr = arr[np.isfinite(arr)]
-    return float(np.median(arr)) if arr.size else None
-
-
-def episode_row_from_score(cell_key: str, meta: dict, score: Any, traj_key: str | None) -> dict:
-    """One ``episodes`` row (for :meth:`ResultsDB.add_episodes`) from an episode's score.
-
-    ``meta``: ``level, map_key, task_set_key, estimator, estimator_options (dict), noise, seed,
-    task_id, timings_ms`` (component name -> (T,) per-step milliseconds) and optionally
-    ``end_reason`` and ``collided`` (taken from ``score`` when it has them). ``score`` is an
-    ``EpisodeScore`` (success, path_length, optimal_length, spl_term, loc_rmse_m, rot_rmse_deg,
-    steps). Timings are stored as per-component medians; ``step_ms`` is the median over steps of
-    the per-step sum of all components (or the sum of the medians when their lengths differ).
-    """
-    timings = meta.get("timings_ms") or {}
-    row: dict[str, Any] = {
-        "cell_key": cell_key,
-        "level": meta["level"],
-        "map_key": meta.get("map_key"),
-        "task_set_key": meta.get("task_set_key"),
-        "task_id": int(meta["task_id"]),
-        "estimator": meta["estimator"],
-        "estimator_options": dict(meta.get("estimator_options") or {}),
-        "noise": meta["noise"],
-        "seed": int(meta["seed"]),
-        "success": bool(score.success),
-        "spl_term": float(score.spl_term),
-        "path_length": float(score.path_length),
-        "optimal_length": float(score.optimal_length),
-        "steps": int(score.steps),
-        "end_reason": getattr(score, "end_reason", None) or meta.get("end_reason"),
-        "collided": getattr(score, "collided", meta.get("collided")),
-        "loc_rmse_m": score.loc_rmse_m,
-        "rot_rmse_deg": score.rot_rmse_deg,
-        "traj_key": traj_key,
-    }
-    if row["collided"] is not None:
-        row["collided"] = bool(row["collided"])
-    for name in TIMING_COMPONENTS:
-        row[f"{name}_ms"] = _median(timings[name]) if name in timings else None
-    arrays = [np.asarray(v, dtype=float).ravel() for v in timings.values()]
-    if arrays and all(a.size == arrays[0].size for a in arrays) and arrays[0].size:
-        row["step_ms"] = _median(np.sum(arrays, axis=0))
-    elif arrays:
-        meds = [_median(a) for a in arrays]
-        row["step_ms"] = float(sum(m for m in meds if m is not None))
-    else:
-        row["step_ms"] = None
-    return row
-
-
-def _task_fields(task: Any) -> tuple[int, tuple, tuple, float]:
-    if isinstance(task, dict):
-        return int(task["id"]), tuple(task["start"]), tuple(task["target"]), float(task["optimal_length"])
-    return int(task.id), tuple(task.start), tuple(task.target), float(task.optimal_length)
-
-
-# --------------------------------------------------------------------------------------------
-# The database
-# --------------------------------------------------------------------------------------------
 
 
 class ResultsDB:
@@ -838,31 +495,6 @@ class ResultsDB:
             elif isinstance(ctype, DateTime):
                 frame[col] = pd.to_datetime(frame[col], utc=True)
         return frame
-
-
-def _apply_filters(stmt, model, filters: dict):
-    table = model.__table__
-    for name, value in filters.items():
-        if value is None:
-            continue
-        if name not in table.c:
-            raise ValueError(f"unknown {table.name} column {name!r}")
-        col = table.c[name]
-        if isinstance(value, (list, tuple, set, frozenset)):
-            stmt = stmt.where(col.in_(list(value)))
-        else:
-            stmt = stmt.where(col == value)
-    return stmt
-
-
-def _add_missing_columns(conn: Connection) -> None:
-    """``ALTER TABLE ... ADD COLUMN`` for each of ``_ADDED_COLUMNS`` the database lacks."""
-    insp = inspect(conn)
-    for table, name in _ADDED_COLUMNS:
-        if name in {c["name"] for c in insp.get_columns(table)}:
-            continue
-        col = Base.metadata.tables[table].c[name]
-        conn.exec_driver_sql(f"ALTER TABLE {table} ADD COLUMN {name} {col.type.compile(conn.dialect)}")
 
 
 def _sqlite_pragmas(dbapi_conn, _record) -> None:

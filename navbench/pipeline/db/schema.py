@@ -1,0 +1,230 @@
+"""The results database's tables (SQLAlchemy 2 declarative models) and their constants.
+
+The layout is described in :mod:`navbench.pipeline.db`; this module only declares it, plus the
+columns each ``add_*`` of :class:`~navbench.pipeline.db.store.ResultsDB` accepts from its caller.
+"""
+
+from __future__ import annotations
+
+import os
+from datetime import datetime
+
+from sqlalchemy import (
+    JSON,
+    Boolean,
+    DateTime,
+    Float,
+    ForeignKey,
+    Integer,
+    String,
+    Text,
+    UniqueConstraint,
+    inspect,
+)
+from sqlalchemy.engine import Connection
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+from navbench.nav.timing import TIMING_COLUMNS
+
+DEFAULT_DB_URL = "sqlite:///results/navbench.db"
+#: Version of the table layout; a database written with another version is refused.
+SCHEMA_VERSION = 1
+DB_ENV = "NAVBENCH_DB"
+RUN_STATUSES = ("running", "done", "failed", "interrupted")
+
+
+def resolve_db_url(url: str | None = None) -> str:
+    """``url``, else ``$NAVBENCH_DB``, else ``sqlite:///results/navbench.db``."""
+    return url or os.environ.get(DB_ENV) or DEFAULT_DB_URL
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class MetaRow(Base):
+    """Key/value facts about the database itself (``schema_version``)."""
+
+    __tablename__ = "navbench_meta"
+    key: Mapped[str] = mapped_column(String(64), primary_key=True)
+    value: Mapped[str] = mapped_column(String(256))
+
+
+class Run(Base):
+    __tablename__ = "runs"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    profile: Mapped[str] = mapped_column(String(512))  # a name or a path to a profile file
+    command: Mapped[str] = mapped_column(Text)
+    config: Mapped[dict] = mapped_column(JSON)
+    config_hash: Mapped[str] = mapped_column(String(128))
+    navbench_version: Mapped[str] = mapped_column(String(32))
+    git_commit: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    host: Mapped[str] = mapped_column(String(256))
+    cpu: Mapped[str] = mapped_column(String(512))
+    started: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    finished: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+    status: Mapped[str] = mapped_column(String(16))
+    # added within schema version 1 (nullable, see _ADDED_COLUMNS): the process running it
+    pid: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    proc_start: Mapped[str | None] = mapped_column(String(128), nullable=True)
+
+
+#: Nullable columns added to a version-1 layout after it shipped: (table, column).
+_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"))
+#: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
+_PG_SCHEMA_LOCK = 0x6E617662656E6368
+
+
+class LevelRow(Base):
+    __tablename__ = "levels"
+    __table_args__ = (UniqueConstraint("name", "content_hash", name="uq_levels_name_hash"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    name: Mapped[str] = mapped_column(String(128))
+    content_hash: Mapped[str] = mapped_column(String(64))
+    meta: Mapped[dict] = mapped_column(JSON)
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+class MapRow(Base):
+    __tablename__ = "maps"
+    __table_args__ = (UniqueConstraint("map_key", name="uq_maps_key"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    level: Mapped[str] = mapped_column(String(128))
+    map_key: Mapped[str] = mapped_column(String(128))
+    depth_mae_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    rgb_l1: Mapped[float | None] = mapped_column(Float, nullable=True)
+    slice_precision: Mapped[float | None] = mapped_column(Float, nullable=True)
+    slice_recall: Mapped[float | None] = mapped_column(Float, nullable=True)
+    fit_seconds: Mapped[float | None] = mapped_column(Float, nullable=True)
+    steps: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    metrics: Mapped[dict] = mapped_column(JSON)  # everything given, including the above
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+class TaskSetRow(Base):
+    __tablename__ = "task_sets"
+    __table_args__ = (UniqueConstraint("task_set_key", name="uq_task_sets_key"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    level: Mapped[str] = mapped_column(String(128))
+    task_set_key: Mapped[str] = mapped_column(String(128))
+    count: Mapped[int] = mapped_column(Integer)
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+class TaskRow(Base):
+    __tablename__ = "tasks"
+    __table_args__ = (UniqueConstraint("task_set_key", "task_id", name="uq_tasks_key_id"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    task_set_key: Mapped[str] = mapped_column(String(128))
+    level: Mapped[str] = mapped_column(String(128))
+    task_id: Mapped[int] = mapped_column(Integer)
+    start_x: Mapped[float] = mapped_column(Float)  # metres, world frame
+    start_y: Mapped[float] = mapped_column(Float)
+    start_theta: Mapped[float] = mapped_column(Float)  # rad
+    target_x: Mapped[float] = mapped_column(Float)
+    target_y: Mapped[float] = mapped_column(Float)
+    optimal_length: Mapped[float] = mapped_column(Float)  # metres
+
+
+class EpisodeRow(Base):
+    __tablename__ = "episodes"
+    __table_args__ = (UniqueConstraint("cell_key", "task_id", "seed", name="uq_episodes_cell_task_seed"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    cell_key: Mapped[str] = mapped_column(String(128), index=True)
+    level: Mapped[str] = mapped_column(String(128))
+    map_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    task_set_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    task_id: Mapped[int] = mapped_column(Integer)
+    estimator: Mapped[str] = mapped_column(String(64))
+    estimator_options: Mapped[dict] = mapped_column(JSON)
+    noise: Mapped[str] = mapped_column(String(32))
+    seed: Mapped[int] = mapped_column(Integer)
+    success: Mapped[bool] = mapped_column(Boolean)
+    spl_term: Mapped[float] = mapped_column(Float)
+    path_length: Mapped[float] = mapped_column(Float)  # metres
+    optimal_length: Mapped[float] = mapped_column(Float)  # metres
+    steps: Mapped[int] = mapped_column(Integer)
+    end_reason: Mapped[str | None] = mapped_column(String(32), nullable=True)
+    collided: Mapped[bool | None] = mapped_column(Boolean, nullable=True)
+    loc_rmse_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    rot_rmse_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    sim_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # per-step medians
+    render_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    estimate_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    plan_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    control_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    step_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # median of per-step sums
+    traj_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+class TrackingRow(Base):
+    __tablename__ = "tracking"
+    __table_args__ = (
+        UniqueConstraint("study_key", "estimator", "trajectory_id", "seed", name="uq_tracking_key"),
+    )
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    study_key: Mapped[str] = mapped_column(String(128))
+    level: Mapped[str] = mapped_column(String(128))
+    map_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    estimator: Mapped[str] = mapped_column(String(64))
+    estimator_options: Mapped[dict] = mapped_column(JSON)
+    noise: Mapped[str | None] = mapped_column(String(32), nullable=True)
+    trajectory_id: Mapped[int] = mapped_column(Integer)
+    seed: Mapped[int] = mapped_column(Integer)
+    steps: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    loc_rmse_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    rot_rmse_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    step_ms_median: Mapped[float | None] = mapped_column(Float, nullable=True)
+    render_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # per-step medians
+    estimate_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    traj_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+class BenchRow(Base):
+    __tablename__ = "bench"
+    __table_args__ = (UniqueConstraint("run_id", "metric", "device", name="uq_bench_run_metric_device"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    host: Mapped[str] = mapped_column(String(256))
+    cpu: Mapped[str] = mapped_column(String(256))
+    navbench_version: Mapped[str] = mapped_column(String(32))
+    metric: Mapped[str] = mapped_column(String(128))
+    value: Mapped[float] = mapped_column(Float)
+    unit: Mapped[str] = mapped_column(String(32))
+    device: Mapped[str] = mapped_column(String(64))  # "cpu", "cuda:0"...
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+# Caller-supplied columns of each add_* (everything else is filled in here).
+_EPISODE_FIELDS = (
+    "cell_key", "level", "map_key", "task_set_key", "task_id", "estimator", "estimator_options",
+    "noise", "seed", "success", "spl_term", "path_length", "optimal_length", "steps", "end_reason",
+    "collided", "loc_rmse_m", "rot_rmse_deg", *TIMING_COLUMNS, "step_ms", "traj_key",
+)
+_EPISODE_REQUIRED = (
+    "cell_key", "level", "task_id", "estimator", "noise", "seed", "success", "spl_term",
+    "path_length", "optimal_length", "steps",
+)
+_TRACKING_FIELDS = (
+    "study_key", "level", "map_key", "estimator", "estimator_options", "noise", "trajectory_id",
+    "seed", "steps", "loc_rmse_m", "rot_rmse_deg", "step_ms_median", "render_ms", "estimate_ms",
+    "traj_key",
+)
+_TRACKING_REQUIRED = ("study_key", "level", "estimator", "trajectory_id", "seed")
+_BENCH_FIELDS = ("metric", "value", "unit", "device", "host", "cpu", "navbench_version")
+_BENCH_REQUIRED = ("metric", "value", "unit")
+_MAP_METRICS = ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "fit_seconds", "steps")
+
+
+def _add_missing_columns(conn: Connection) -> None:
+    """``ALTER TABLE ... ADD COLUMN`` for each of ``_ADDED_COLUMNS`` the database lacks."""
+    insp = inspect(conn)
+    for table, name in _ADDED_COLUMNS:
+        if name in {c["name"] for c in insp.get_columns(table)}:
+            continue
+        col = Base.metadata.tables[table].c[name]
+        conn.exec_driver_sql(f"ALTER TABLE {table} ADD COLUMN {name} {col.type.compile(conn.dialect)}")
