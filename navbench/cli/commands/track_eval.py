@@ -6,6 +6,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, parse_list, print_json
+from navbench.cli._help import DB_HELP
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS  # light
 
 
@@ -55,8 +56,7 @@ def register(app: typer.Typer) -> None:
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
                                           "study's default (20 x 500)."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object keyed by estimator."),
-        db: str = typer.Option(None, "--db", help="Results database URL (default $NAVBENCH_DB or "
-                               "sqlite:///results/navbench.db)."),
+        db: str = typer.Option(None, "--db", help=DB_HELP),
         no_store: bool = typer.Option(False, "--no-store", help="Do not store the per-trajectory "
                                       "rows in the results database."),
     ):
