@@ -204,3 +204,17 @@ def test_console_entry_point_prints_the_completion_script():
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 0, p.stderr
     assert "complete -o default -F _navbench_completion navbench" in p.stdout
+
+
+@pytest.mark.parametrize("path,cmd", COMMANDS, ids=IDS)
+def test_command_description_is_filled_not_ragged(path, cmd):
+    """A docstring's source line breaks do not show: at 80 columns every line of a paragraph but
+    its last is nearly full (typer keeps single line breaks in rich mode; main.py reflows)."""
+    r = CliRunner().invoke(app, [*path, "--help"], prog_name="navbench", env={"COLUMNS": "80"})
+    lines = r.output.splitlines()
+    start = next(i for i, s in enumerate(lines) if "Usage:" in s) + 1
+    end = next((i for i, s in enumerate(lines) if s.lstrip().startswith("╭")), len(lines))
+    paragraphs = "\n".join(s.rstrip() for s in lines[start:end]).strip("\n").split("\n\n")
+    for para in paragraphs:
+        for line in para.splitlines()[:-1]:
+            assert len(line) >= 60, (line, para)
