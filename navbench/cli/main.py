@@ -12,6 +12,7 @@ with exit code 2; anything else is a bug and keeps its traceback.
 from __future__ import annotations
 
 import importlib
+import inspect
 import pkgutil
 import sys
 
@@ -24,7 +25,7 @@ app = typer.Typer(
     help="Reproduce 'Tracking and Planning with Spatial World Models': levels, simulator, "
     "world models, navigation and tracking experiments with a results database.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion SHELL
     pretty_exceptions_enable=False,
     rich_markup_mode="rich",
 )
@@ -56,7 +57,27 @@ def _register_all() -> None:
             register(app)
 
 
+def _reflow(doc: str) -> str:
+    """``doc`` with each paragraph on one line. In rich markup mode typer keeps a docstring's
+    single line breaks, so text wrapped for the source came out ragged at any terminal width;
+    paragraphs (blank-line separated) and ``\\b`` blocks are kept."""
+    paragraphs = inspect.cleandoc(doc).split("\n\n")
+    return "\n\n".join(p if p.startswith("\b") else " ".join(p.split()) for p in paragraphs)
+
+
+def _reflow_help(typer_app: typer.Typer) -> None:
+    """Reflow the help of every command of ``typer_app`` and of its sub-apps (``db``, ``cache``)."""
+    for info in typer_app.registered_commands:
+        doc = info.help or (info.callback.__doc__ if info.callback else None)
+        if doc:
+            info.help = _reflow(doc)
+    for group in typer_app.registered_groups:
+        if group.typer_instance is not None:
+            _reflow_help(group.typer_instance)
+
+
 _register_all()
+_reflow_help(app)
 
 
 def _click_kind(e: BaseException) -> str | None:

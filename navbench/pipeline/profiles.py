@@ -32,6 +32,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import dataclasses
+import functools
 import math
 import re
 import tomllib
@@ -528,3 +529,42 @@ def override(profile: Profile, **changes: Any) -> Profile:
         return profile
     with _validating_as("command line"):
         return dataclasses.replace(profile, **changes)
+
+
+
+@functools.lru_cache(maxsize=1)
+def _bundled_docs() -> tuple[tuple[str, dict], ...]:
+    """``(name, parsed TOML)`` of every readable bundled profile, parsed once per process."""
+    docs = []
+    for name in available_profiles():
+        try:
+            docs.append((name, tomllib.loads((PROFILES_DIR / f"{name}.toml").read_text(encoding="utf-8"))))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            continue
+    return tuple(docs)
+
+
+def bundled_field_values(fname: str) -> dict[str, Any]:
+    """``{profile name: value}`` of the :class:`Profile` field ``fname`` in every bundled profile,
+    as the TOML file writes it, else the field's default (``fit``: the extra FitConfig fields).
+
+    For help texts that cite the real defaults: unchecked and cheap (a full load validates the
+    estimator names, which imports the estimator registry and with it numba); the files are
+    read once per process and the values are shared, so treat them as read-only. A bundled
+    file that cannot be read is left out; loading it reports the error where it matters."""
+    if fname == "fit":
+        section, key = "fit", None
+    else:
+        section, key = next((s, k) for s, keys in _SECTIONS.items() for k, f in keys.items() if f == fname)
+    default = next(f for f in dataclasses.fields(Profile) if f.name == fname)
+    out: dict[str, Any] = {}
+    for name, doc in _bundled_docs():
+        table = doc.get(section, {}) if section else doc
+        table = table if isinstance(table, dict) else {}
+        if key is None:
+            out[name] = {k: v for k, v in table.items() if k not in _SECTIONS["fit"]}
+        elif key in table:
+            out[name] = table[key]
+        else:
+            out[name] = default.default_factory() if default.default is dataclasses.MISSING else default.default
+    return out

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
+from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, profile_default, profile_help
 from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.profiles import MAX_WORKERS  # light
 
@@ -40,13 +41,14 @@ def _print_scores(path: Path) -> None:
 def register(app: typer.Typer) -> None:
     @app.command("all")
     def all_(
-        profile: str = typer.Option("quick", "--profile", help="Profile: quick, paper or a .toml path."),
-        workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count."),
+        profile: str = typer.Option(DEFAULT_PROFILE, "--profile", help=profile_help("Profile", shows_default=True)),
+        workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count "
+                                 f"{profile_default('workers')}."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
         address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray)."),
         report_dir: Path = typer.Option(Path("results/report"), "--report", help="Where the report is published."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                               help="Results database URL [default: sqlite:///results/navbench.db]."),
+                               help=DB_HELP),
     ):
         """make-level -> collect-views -> fit-map -> sample-tasks -> run-navigation -> score -> report.
 

@@ -8,6 +8,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, err_console
+from navbench.cli._help import DB_HELP, default
 from navbench.pipeline.profiles import MAX_TASKS, MAX_WORKERS  # light
 
 
@@ -76,21 +77,21 @@ def _print_table(result: dict) -> None:
 def bench(
     quick: bool = typer.Option(False, "--quick", help="Fewer repeats and a smaller end-to-end run (< 60 s)."),
     repeats: int = typer.Option(None, "--repeats", min=1, max=10_000,
-                                help="Timed repeats per measurement (default: 5 with --quick, else 20)."),
+                                help=f"Timed repeats per measurement {default('5 with --quick, else 20')}."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of the table."),
     level: str = typer.Option("house-1", "--level", help="Level name (levels/NAME.json) or file."),
     seed: int = typer.Option(0, "--seed", help="Seed of every pose, pixel, walk and task drawn."),
     workers: int = typer.Option(0, "--workers", min=0, max=MAX_WORKERS,
                                 help="Local worker processes of the end-to-end run (0: CPU count)."),
     e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0, max=MAX_TASKS,
-                                  help="Tasks of the end-to-end run, 0 skips it (default: 2 with --quick, else 6)."),
+                                  help=f"Tasks of the end-to-end run, 0 skips it {default('2 with --quick, else 6')}."),
     cache: str = typer.Option("results/cache", "--cache", help="Stage cache to take a fitted map from."),
     store: bool = typer.Option(True, "--store/--no-store", help="Store the results in the results database."),
     cuda: bool = typer.Option(None, "--cuda/--no-cuda",
                               help="Also time the GPU path (differentiable render, fit step) on "
-                                   "cuda:0 (default: when torch sees a GPU)."),
+                                   f"cuda:0 {default('when torch sees a GPU')}."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                           help="Results database URL (default: sqlite:///results/navbench.db)."),
+                           help=DB_HELP),
 ):
     """Time the simulator, world model, planner, trackers, the full control step and whole
     episodes; print medians with their spread beside the paper's GPU figures and the speed

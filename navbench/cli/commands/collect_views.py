@@ -5,6 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console
+from navbench.cli._help import profile_default, profile_help
 
 
 def _collect(level: str, count: int | None, camera: str | None, seed: int | None, profile: str | None,
@@ -26,18 +27,15 @@ def _collect(level: str, count: int | None, camera: str | None, seed: int | None
                   f"key [bold]{ref.key[:12]}[/bold] -> {ref.path}", soft_wrap=True)
 
 
-_HELP_COUNT = "Number of views [default: the profile's, quick 1000]."
-
-
 def register(app: typer.Typer) -> None:
     @app.command("collect-views")
     def collect_views(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
-        count: int = typer.Option(None, "--count", min=1, help=_HELP_COUNT),
+        count: int = typer.Option(None, "--count", min=1, help=f"Number of views {profile_default('views')}."),
         camera: str = typer.Option(None, "--camera", help="half (160x120) or paper (320x240) "
-                                   "[default: the profile's]."),
-        seed: int = typer.Option(None, "--seed", min=0, help="Pose sampling seed [default: the profile's]."),
-        profile: str = typer.Option(None, "--profile", help="Profile for defaults (quick, paper or a .toml)."),
+                                   f"{profile_default('camera')}."),
+        seed: int = typer.Option(None, "--seed", min=0, help=f"Pose sampling seed {profile_default('views_seed')}."),
+        profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
     ):
         """Collect views uniformly in the level's free space into the cache (keyed, reused)."""
@@ -47,9 +45,9 @@ def register(app: typer.Typer) -> None:
     def collect_5000_views(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
         count: int = typer.Option(5000, "--count", min=1, help="Number of views."),
-        camera: str = typer.Option(None, "--camera", help="half or paper [default: the profile's]."),
-        seed: int = typer.Option(None, "--seed", min=0, help="Pose sampling seed [default: the profile's]."),
-        profile: str = typer.Option(None, "--profile", help="Profile for defaults."),
+        camera: str = typer.Option(None, "--camera", help=f"half or paper {profile_default('camera')}."),
+        seed: int = typer.Option(None, "--seed", min=0, help=f"Pose sampling seed {profile_default('views_seed')}."),
+        profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
     ):
         """Alias of collect-views with --count 5000 (the paper's view count)."""

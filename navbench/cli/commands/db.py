@@ -7,11 +7,12 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console
+from navbench.cli._help import DB_HELP
 
 db_app = typer.Typer(help="Inspect the results database.", no_args_is_help=True)
 
 _DB_OPTION = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                          help="Results database URL [default: sqlite:///results/navbench.db].")
+                          help=DB_HELP)
 
 
 @db_app.command("info")

@@ -7,6 +7,7 @@ import dataclasses
 import typer
 
 from navbench.cli._common import console, print_json
+from navbench.cli._help import DB_HELP, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_FIT_STEPS  # light
 
 
@@ -14,25 +15,26 @@ def register(app: typer.Typer) -> None:
     @app.command("fit-map")
     def fit_map(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
-        steps: int = typer.Option(None, "--steps", min=1, max=MAX_FIT_STEPS, help="Adam steps [default: the profile's; "
-                                  "quick 1500, paper 10000]."),
+        steps: int = typer.Option(None, "--steps", min=1, max=MAX_FIT_STEPS, help=f"Adam steps {profile_default('fit_steps')}."),
         views: str = typer.Option("auto", "--views", help="Training views: a collect-views key (>= 6 "
                                   "hex digits, see `navbench cache ls`) or 'auto' (collect with the "
                                   "profile's settings, cached)."),
-        seed: int = typer.Option(None, "--seed", min=0, help="Batch sampling seed [default: the profile's]."),
-        camera: str = typer.Option(None, "--camera", help="half or paper [default: the profile's]."),
-        profile: str = typer.Option(None, "--profile", help="Profile for defaults (quick, paper or a .toml)."),
+        seed: int = typer.Option(None, "--seed", min=0, help=f"Batch sampling seed {profile_default('fit_seed')}."),
+        camera: str = typer.Option(None, "--camera", help=f"half or paper {profile_default('camera')}."),
+        profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         device: str = typer.Option(None, "--device", help="Where the fit runs: auto (CUDA when torch sees "
                                    "a GPU, else cpu), cpu (numba path), cuda[:N], or torch-cpu (the GPU "
-                                   "path's code on the CPU, slow) [default: the profile's, else auto]."),
+                                   "path's code on the CPU, slow) "
+                                   f"{profile_default('fit', fit_key='device', otherwise='auto')}."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object with the quality metrics."),
         force: bool = typer.Option(False, "--force", help="Refit even when cached."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                               help="Results database URL [default: sqlite:///results/navbench.db]."),
+                               help=DB_HELP),
     ):
-        """Fit M_occ and M_col (eq. 3) and evaluate the map on 200 held-out views.
+        """Fit M_occ and M_col (eq. 3) and evaluate the map on the profile's held-out views.
 
-        The held-out views are a separate cached collection with another seed. Quality:
+        The held-out views (the profile's views.eval_count, seed views.eval_seed) are a
+        separate cached collection with another seed. Quality:
         depth MAE (m) and RGB L1 on the held-out views, precision and recall of the map's
         horizontal occupancy slice against the true level, fit time and steps.
         """

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
+from navbench.cli._help import default
 
 
 def _check_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt) -> None:
@@ -43,15 +44,14 @@ def register(app: typer.Typer) -> None:
                                          "groundtruth.txt, rgb/, depth/)."),
         out: Path = typer.Option(..., "--out", help="Views artifact to write (a directory, or "
                                  "a single file if it ends in .npz); must not exist yet."),
-        fx: float = typer.Option(None, "--fx", help="Focal length x (px) [default: intrinsics.json]."),
-        fy: float = typer.Option(None, "--fy", help="Focal length y (px) [default: --fx]."),
-        cx: float = typer.Option(None, "--cx", help="Principal point x (px) [default: width / 2]."),
-        cy: float = typer.Option(None, "--cy", help="Principal point y (px) [default: height / 2]."),
+        fx: float = typer.Option(None, "--fx", help=f"Focal length x (px) {default('intrinsics.json')}."),
+        fy: float = typer.Option(None, "--fy", help=f"Focal length y (px) {default('--fx')}."),
+        cx: float = typer.Option(None, "--cx", help=f"Principal point x (px) {default('width / 2')}."),
+        cy: float = typer.Option(None, "--cy", help=f"Principal point y (px) {default('height / 2')}."),
         camera_height: float = typer.Option(None, "--camera-height", help="Camera height above "
-                                            "the floor (m) [default: intrinsics.json, else the "
-                                            "median camera z]."),
+                                            f"the floor (m) {default('intrinsics.json, else the median camera z')}."),
         depth_scale: float = typer.Option(None, "--depth-scale", help="Depth PNG units per metre "
-                                          "[default: 5000]."),
+                                          f"{default('intrinsics.json, else 5000')}."),
         max_dt: float = typer.Option(0.02, "--max-dt", help="Timestamp association tolerance (s)."),
     ):
         """Read a TUM RGB-D layout (poses are camera-to-world) into a views artifact."""

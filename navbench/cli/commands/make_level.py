@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
+from navbench.cli._help import default
 
 
 def _write(level, force: bool) -> tuple[Path, str]:
@@ -53,14 +54,14 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(None, "--seed", min=0, help="Generator seed (required unless --benchmark)."),
         kind: str = typer.Option("house", "--kind", help="house or maze."),
         size: float = typer.Option(None, "--size", help="Footprint's longer side, metres "
-                                   "(default 11.4 for houses, 9.7 for the maze)."),
+                                   f"{default('11.4 for houses, 9.7 for the maze')}."),
         rooms: int = typer.Option(None, "--rooms", help="Number of rooms, corridor included "
-                                  "(default: 4-8 drawn from the seed)."),
+                                  f"{default('4-8 drawn from the seed')}."),
         obstacles: int = typer.Option(None, "--obstacles", help="Number of furniture obstacles."),
         from_houseexpo: Path = typer.Option(None, "--from-houseexpo", help="Import the outline "
                                             "of a HouseExpo JSON file instead of generating one."),
         benchmark: bool = typer.Option(False, "--benchmark", help="(Re)generate all the benchmark "
-                                       "levels of navbench.levelgen.BENCHMARK_LEVELS."),
+                                       "levels (BENCHMARK_LEVELS in navbench.levelgen)."),
         force: bool = typer.Option(False, "--force", help="Overwrite an existing, different file."),
     ):
         """Generate a level and write levels/NAME.json in the current directory."""

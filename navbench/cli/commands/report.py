@@ -5,13 +5,14 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console
+from navbench.cli._help import DB_HELP
 from navbench.cli.commands.score import MAX_BOOT
 
 
 def report(
     out: str = typer.Option("results/report", "--out", help="Output folder (index.html + CSV files)."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                           help="Results database URL [default: sqlite:///results/navbench.db]."),
+                           help=DB_HELP),
     cache: str = typer.Option("results/cache", "--cache",
                               help="Stage cache holding the trajectories and maps."),
     levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),

@@ -5,32 +5,33 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
+from navbench.cli._help import DB_HELP, default, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
 def register(app: typer.Typer) -> None:
     @app.command("run-navigation")
     def run_navigation(
-        levels: list[str] = typer.Argument(None, help="Level names [default: the profile's]."),
+        levels: list[str] = typer.Argument(None, help=f"Level names {profile_default('levels')}."),
         estimators: str = typer.Option(None, "--estimators", help="Comma-separated: ours, no-map, "
-                                       "dynamics, gt, emission [default: the profile's]."),
+                                       f"dynamics, gt, emission {profile_default('estimators')}."),
         noise: str = typer.Option(None, "--noise", help="Comma-separated noise levels: low, mid, high "
-                                  "(also none, tracking) [default: the profile's]."),
-        tasks: int = typer.Option(None, "--tasks", min=1, max=MAX_TASKS, help="Tasks per level [default: the profile's]."),
-        seeds: int = typer.Option(None, "--seeds", min=1, max=MAX_SEEDS, help="Episode seeds per task [default: 1]."),
+                                  f"(also none, tracking) {profile_default('noise')}."),
+        tasks: int = typer.Option(None, "--tasks", min=1, max=MAX_TASKS, help=f"Tasks per level {profile_default('tasks')}."),
+        seeds: int = typer.Option(None, "--seeds", min=1, max=MAX_SEEDS, help=f"Episode seeds per task {profile_default('seeds')}."),
         workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes (local) or CPUs "
-                                    "(ray); 0 = CPU count, 1 = in this process."),
+                                    f"(ray); 0 = CPU count, 1 = in this process {profile_default('workers')}."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
-        address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray; "
-                                    "default: start a local Ray instance)."),
+        address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray) "
+                                    f"{default('start a local Ray instance')}."),
         map_source: str = typer.Option(None, "--map", help="fit (the fitted world model), true "
                                        "(the voxelized true geometry) or a map file (.npz; {level} "
-                                       "stands for the level's name) [default: the profile's]."),
+                                       f"stands for the level's name) {profile_default('map_source')}."),
         chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
-                                  "[default: up to 8, a quarter of the work per worker]."),
-        profile: str = typer.Option(None, "--profile", help="Profile (quick, paper or a .toml) [default: quick]."),
+                                  f"{default('up to 8, a quarter of the work per worker')}."),
+        profile: str = typer.Option(None, "--profile", help=profile_help("Profile")),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                               help="Results database URL [default: sqlite:///results/navbench.db]."),
+                               help=DB_HELP),
     ):
         """Run navigation episodes and store them in the results database.
 

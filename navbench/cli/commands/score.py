@@ -7,6 +7,7 @@ from enum import Enum
 import typer
 
 from navbench.cli._common import console, parse_list
+from navbench.cli._help import DB_HELP
 
 #: bootstrap resamples allocate resamples x episodes numbers; 100 000 is 50x the default
 MAX_BOOT = 100_000
@@ -32,7 +33,7 @@ def score(
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
-                           help="Results database URL [default: sqlite:///results/navbench.db]."),
+                           help=DB_HELP),
 ):
     """Score the stored navigation episodes offline, with bootstrap 95% intervals.
 

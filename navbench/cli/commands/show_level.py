@@ -7,13 +7,14 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
+from navbench.cli._help import default
 
 
 def register(app: typer.Typer) -> None:
     @app.command("show-level")
     def show_level(
         name: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
-        out: Path = typer.Option(None, "--out", help="PNG to write (default results/levels/NAME.png)."),
+        out: Path = typer.Option(None, "--out", help=f"PNG to write {default('results/levels/NAME.png')}."),
         doors: bool = typer.Option(False, "--doors", help="Mark the door centres."),
         dpi: int = typer.Option(120, "--dpi", min=20, max=600, help="Resolution of the PNG."),
     ):

@@ -6,6 +6,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, parse_list, print_json
+from navbench.cli._help import DB_HELP, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS  # light
 
 
@@ -45,8 +46,8 @@ def register(app: typer.Typer) -> None:
         map_: str = typer.Option("fit", "--map", help="fit: the profile's fitted world model (built "
                                  "if missing, as in the paper's study); true: the voxelised true "
                                  "geometry (an upper bound); or a map file (map.npz format)."),
-        profile: str = typer.Option(None, "--profile", help="Profile whose fit settings build the map "
-                                    "with --map fit (quick, paper, six or a .toml) \\[default: quick]."),
+        profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
+                                                                          "build the map with --map fit")),
         seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
@@ -58,8 +59,7 @@ def register(app: typer.Typer) -> None:
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
                                           "study's default (20 x 500)."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object keyed by estimator."),
-        db: str = typer.Option(None, "--db", help="Results database URL (default $NAVBENCH_DB or "
-                               "sqlite:///results/navbench.db)."),
+        db: str = typer.Option(None, "--db", help=DB_HELP),
         no_store: bool = typer.Option(False, "--no-store", help="Do not store the per-trajectory "
                                       "rows in the results database."),
     ):
