@@ -36,3 +36,8 @@ class TrackingError(NavbenchError):
 
 class DatabaseError(NavbenchError):
     """The results database is unreachable or inconsistent."""
+
+
+class PluginError(ConfigError):
+    """A plugin (an entry point of another distribution) is broken: it fails to import, clashes
+    with a built-in or another plugin, or does not declare what navbench needs."""

@@ -154,7 +154,7 @@ def _check_names(v: Any, kind: str, known: Callable[[], list[str]] | None) -> No
     seen = set()
     for x in v:
         if names is not None and x not in names:
-            raise _Invalid(f"unknown {kind} {x!r}; choose from {list(names)}")
+            raise _Invalid(f"unknown {kind} {x!r} (known: {', '.join(names)})")
         if not is_safe_name(x):
             raise _Invalid(f"{x!r} is not a safe {kind} name ({_SAFE_RULE})")
         if x in seen:
@@ -166,6 +166,20 @@ def _known_estimators() -> list[str]:
     from navbench.track.registry import known_estimators
 
     return known_estimators()
+
+
+def _check_estimators(v: Any) -> None:
+    """Estimator names (built-in or plugin, see :mod:`navbench.track.registry`), each class
+    loaded now: a broken plugin fails here, before any stage runs, not in a worker."""
+    _check_names(v, "estimator", _known_estimators)
+    from navbench.errors import PluginError
+    from navbench.track.registry import estimator_class
+
+    for name in v:
+        try:
+            estimator_class(name)
+        except PluginError as e:
+            raise _Invalid(str(e)) from None
 
 
 # ------------------------------------------------------ dataclass-valued tables (fit, episode, options)
@@ -303,7 +317,7 @@ def _check_options(options: Any) -> None:
     for est, opts in options.items():
         section = f"[navigation.options.{est}]"
         if est not in known:
-            raise _Invalid(f"{section}: unknown estimator {est!r}; choose from {known}")
+            raise _Invalid(f"{section}: unknown estimator {est!r} (known: {', '.join(known)})")
         if not isinstance(opts, dict):
             raise _Invalid(f"{section}: expected a table of options, got {opts!r}")
         for reserved in ("seed", "vmap", "intrinsics", "camera_height", "renderer"):
@@ -322,7 +336,7 @@ def _check_options(options: Any) -> None:
             config_from_options(cfg_cls(), opts, est)
         except _Invalid as e:
             raise _Invalid(f"{section} {e}") from None
-        except NavbenchError as e:
+        except (NavbenchError, ValueError, TypeError) as e:  # a plugin's options may raise these
             raise _Invalid(f"{section}: {e}") from None
 
 
@@ -387,7 +401,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "fit": ("[fit]", _check_fit),
     "tasks": ("[tasks] count", _int(1, MAX_TASKS).check),
     "tasks_seed": ("[tasks] seed", _SEED.check),
-    "estimators": ("[navigation] estimators", lambda v: _check_names(v, "estimator", _known_estimators)),
+    "estimators": ("[navigation] estimators", _check_estimators),
     "noise": ("[navigation] noise", lambda v: _check_names(v, "noise level", lambda: list(NOISE_NAMES))),
     "seeds": ("[navigation] seeds", _int(1, MAX_SEEDS).check),
     "workers": ("[navigation] workers", _int(0, MAX_WORKERS).check),

@@ -19,7 +19,14 @@ from navbench.geometry import Frame
 
 @runtime_checkable
 class Estimator(Protocol):
+    """What the pipeline calls. The capabilities are class attributes that the registry reads
+    before any episode runs (:mod:`navbench.track.registry`); the constructor takes the keyword
+    arguments ``vmap``, ``intrinsics``, ``camera_height``, ``renderer``, ``seed`` and the options."""
+
     name: str
+    uses_frames: bool                 # reads camera images (False: the simulator renders none)
+    uses_map: bool                    # needs the world model (vmap)
+    options: type | None              # frozen dataclass of its keyword options, or None
     last_timing: dict[str, float]
 
     def reset(self, pose0: np.ndarray, frame0: Frame) -> None:
@@ -57,33 +64,16 @@ def config_from_options(base: Any, options: dict[str, Any], what: str) -> Any:
     return replace(base, **conv)
 
 
-_REGISTRY: dict[str, Any] = {}
-
-
-def register_estimator(name: str):
-    """Class decorator: make an estimator constructible by name through :func:`make_estimator`."""
-
-    def deco(cls):
-        _REGISTRY[name] = cls
-        cls.name = name
-        return cls
-
-    return deco
-
-
 def make_estimator(name: str, **kwargs) -> Estimator:
-    """Build a registered estimator; ``kwargs`` are its constructor arguments (map, intrinsics...)."""
-    from navbench.errors import TrackingError
-    import navbench.track.registry  # noqa: F401  (imports every estimator module)
+    """Build estimator ``name`` (built-in or plugin): :func:`navbench.track.registry.make_estimator`,
+    kept here for the callers that import it from this module."""
+    from navbench.track.registry import make_estimator as make
 
-    try:
-        cls = _REGISTRY[name]
-    except KeyError:
-        raise TrackingError(f"unknown estimator {name!r}; choose one of {sorted(_REGISTRY)}") from None
-    return cls(**kwargs)
+    return make(name, **kwargs)
 
 
 def estimator_names() -> list[str]:
-    import navbench.track.registry  # noqa: F401
+    """Every estimator name, built-in and plugin: :func:`navbench.track.registry.known_estimators`."""
+    from navbench.track.registry import known_estimators
 
-    return sorted(_REGISTRY)
+    return known_estimators()

@@ -15,13 +15,16 @@ import numpy as np
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, Frame
 from navbench.sim.dynamics import predict
-from navbench.track.base import register_estimator
 
 
 class _Basic:
-    """Shared constructor: accepts and ignores the uniform estimator keyword arguments."""
+    """Shared constructor: accepts and ignores the uniform estimator keyword arguments.
+    Neither reads frames or the map, and neither takes options (registry capabilities)."""
 
     name = "basic"
+    uses_frames = False
+    uses_map = False
+    options = None
 
     def __init__(self, vmap=None, intrinsics=None, camera_height: float = CAMERA_HEIGHT,
                  renderer=None, seed: int = 0, **options):
@@ -38,9 +41,10 @@ class _Basic:
             raise TrackingError(f"estimator {self.name!r}: update() before reset()")
 
 
-@register_estimator("gt")
 class GroundTruthEstimator(_Basic):
     """Returns the true pose passed to :meth:`update`."""
+
+    name = "gt"
 
     def update(self, control, frame: Frame | None = None, true_pose=None) -> np.ndarray:
         self._check()
@@ -52,9 +56,10 @@ class GroundTruthEstimator(_Basic):
         return self.pose.copy()
 
 
-@register_estimator("dynamics")
 class DynamicsEstimator(_Basic):
     """Path integration: ``pose <- predict(pose, control)`` (noise-free dynamics)."""
+
+    name = "dynamics"
 
     def update(self, control, frame: Frame | None = None, true_pose=None) -> np.ndarray:
         self._check()

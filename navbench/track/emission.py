@@ -36,7 +36,7 @@ import numpy as np
 
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, Frame, Intrinsics, camera_pose
-from navbench.track.base import check_update, config_from_options, register_estimator
+from navbench.track.base import check_update, config_from_options
 from navbench.track.lie import planar_from_camera, se3_exp
 from navbench.track.eq7 import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
 
@@ -202,13 +202,17 @@ def _threads(n: int | None):
         numba.set_num_threads(n_old)
 
 
-@register_estimator("emission")
 class EmissionTracker:
     """Emission-based tracking through the differentiable renderer (needs ``vmap``).
 
     ``renderer`` is accepted for the uniform constructor and ignored: this tracker renders the
     sampled rays itself, with gradients.
     """
+
+    name = "emission"
+    uses_frames = True
+    uses_map = True
+    options = EmissionConfig
 
     def __init__(self, vmap=None, intrinsics: Intrinsics = HALF_CAMERA,
                  camera_height: float = CAMERA_HEIGHT, renderer: Callable | None = None,

@@ -78,7 +78,7 @@ import numpy as np
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, camera_pose
 from navbench.sim.dynamics import predict
-from navbench.track.base import check_update, register_estimator
+from navbench.track.base import check_update
 from navbench.track.eq7 import (
     Reference,
     TrackerConfig,
@@ -241,7 +241,9 @@ class _PredictionToObservation:
     """Shared shell of ``ours`` and ``no-map``: state, timing, the reference image."""
 
     name = "ours"
-    uses_map = True
+    uses_frames = True
+    uses_map = True  # False: the reference is the previous observation, not the map's rendering
+    options = TrackerConfig  # keyword options, see make_config
 
     def __init__(self, vmap=None, intrinsics: Intrinsics = HALF_CAMERA,
                  camera_height: float = CAMERA_HEIGHT, renderer: Callable | None = None,
@@ -298,15 +300,15 @@ class _PredictionToObservation:
         return est.copy()
 
 
-@register_estimator("ours")
 class PredictionToObservationTracker(_PredictionToObservation):
     """Eq. 7 against the image the map renders at the previous estimate (the paper's tracker)."""
 
+    name = "ours"
     uses_map = True
 
 
-@register_estimator("no-map")
 class FrameToFrameTracker(_PredictionToObservation):
     """The "no map" ablation: eq. 7 against the previous observation ``x_{t-1}``."""
 
+    name = "no-map"
     uses_map = False

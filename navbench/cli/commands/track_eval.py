@@ -142,19 +142,16 @@ def register(app: typer.Typer) -> None:
 
 
 def _check_estimators(names: tuple[str, ...], options: dict[str, dict]) -> None:
-    """``--estimators``: at least one, each known; ``--option``: only for known estimators."""
+    """``--estimators``: at least one, each known (built-in or plugin) and loadable;
+    ``--option``: only for known estimators."""
     from navbench.errors import ConfigError
-    from navbench.track.registry import known_estimators
+    from navbench.track.registry import check_estimator_names, known_estimators
 
-    known = known_estimators()
     if not names:
-        raise ConfigError(f"--estimators: expected at least one estimator name; choose from {known}")
-    for n in names:
-        if n not in known:
-            raise ConfigError(f"--estimators: unknown estimator {n!r}; choose from {known}")
-    for n in options:
-        if n not in known:
-            raise ConfigError(f"--option: unknown estimator {n!r}; choose from {known}")
+        raise ConfigError("--estimators: expected at least one estimator name "
+                          f"(known: {', '.join(known_estimators())})")
+    check_estimator_names(names, "--estimators")
+    check_estimator_names(options, "--option")
 
 
 def _store(rdb, run_id: int, res: dict, level_key: str, map_key: str) -> dict:
