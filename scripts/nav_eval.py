@@ -27,7 +27,7 @@ from navbench.nav.metrics import score_episode, spl
 from navbench.plan.astar import make_planner_map
 from navbench.plan.tasks import find_task_file, load_tasks, sample_tasks
 from navbench.sim.world import Simulator
-from navbench.track.base import make_estimator
+from navbench.track.registry import make_estimator
 
 TRUE_MAP_CELL = 0.057  # m, the 200-cell grid's cell on an 11.4 m level
 

@@ -119,7 +119,7 @@ def test_e2e_and_estimator_conditions(fake_timers, monkeypatch):
     result = run_bench(config=BenchConfig(quick=True, cuda=False, e2e_tasks=0))
     assert result["e2e_steps_per_s"] is None and result["notes"]["e2e_steps_per_s"] == "disabled (0 tasks)"
     assert result["labels"]["e2e_steps_per_s"] == "episode steps per second"
-    monkeypatch.setattr("navbench.track.base.estimator_names", lambda: ["ours"])
+    monkeypatch.setattr("navbench.track.registry.known_estimators", lambda: ["ours"])
     result = run_bench(config=BenchConfig(quick=True, cuda=False, e2e_tasks=0))
     assert result["track_ms_emission_paper"] is None
     assert result["notes"]["track_ms_emission_paper"] == "estimator 'emission' not available yet"

@@ -96,7 +96,7 @@ def run_bench(quick: bool = False, repeats: int | None = None, config: BenchConf
     import torch
 
     from navbench.levelio import level_path, resolve_level
-    from navbench.track.base import estimator_names
+    from navbench.track.registry import known_estimators
     from navbench.worldmodel.fastrender import map_step
 
     cfg = config if config is not None else BenchConfig(quick=quick, repeats=repeats)
@@ -121,7 +121,7 @@ def run_bench(quick: bool = False, repeats: int | None = None, config: BenchConf
     vmap, map_desc = bench_map(level, level_file, cfg.cache_root)
     use_cuda = torch.cuda.is_available() if cfg.cuda is None else (cfg.cuda and torch.cuda.is_available())
     ctx = BenchContext(cfg, level, level_file, vmap, map_desc, map_step(vmap, None),
-                       frozenset(estimator_names()), use_cuda, say)
+                       frozenset(known_estimators()), use_cuda, say)
     for row in TABLE:
         ctx.metrics[row.key] = measure(row, ctx)
     say("done")

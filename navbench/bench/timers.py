@@ -269,7 +269,7 @@ def time_tracking(walk: Walk, vmap, intrinsics: Intrinsics, estimator: str, opti
                   budget_s: float | None = None) -> list[float]:
     """One ``estimator.update`` (the reference render included) along ``walk``: the estimator is
     reset at the walk's known start, the first ``warmup`` steps are tracked untimed."""
-    from navbench.track.base import make_estimator
+    from navbench.track.registry import make_estimator
 
     if len(walk.controls) < warmup + repeats:
         raise ConfigError(f"the walk has {len(walk.controls)} steps, {warmup + repeats} needed")
@@ -316,7 +316,7 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
     from navbench.nav.episode import EpisodeConfig, run_episode
     from navbench.plan.astar import make_planner_map
     from navbench.sim.world import Simulator
-    from navbench.track.base import make_estimator
+    from navbench.track.registry import make_estimator
     from navbench.worldmodel.grid import occupancy_slice
 
     occ2d, xs, ys = occupancy_slice(vmap, "band")

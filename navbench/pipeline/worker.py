@@ -11,9 +11,6 @@ if TYPE_CHECKING:  # the grid's types only annotate here; importing the stages p
     from navbench.pipeline.stages.grid import ChunkSpec, EpisodeJob
 
 
-#: Estimators that never look at camera frames: their simulator skips rendering.
-FRAMELESS_ESTIMATORS = frozenset({"gt", "dynamics"})
-
 _WORKER_MEMO: dict[tuple, Any] = {}
 
 
@@ -43,7 +40,7 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
     from navbench.nav.episode import run_episode
     from navbench.nav.metrics import score_episode
     from navbench.sim.world import Simulator
-    from navbench.track.base import make_estimator
+    from navbench.track.registry import make_estimator, uses_frames
 
     level, vmap, occ2d, xs, ys, tasks = _worker_inputs(spec)
     intr = camera_by_name(spec.camera)
@@ -51,7 +48,7 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
     for job in spec.jobs:
         c = job.cell
         ep_cfg = build_episode_config(c.episode)
-        frames = c.estimator not in FRAMELESS_ESTIMATORS
+        frames = uses_frames(c.estimator)  # estimators that never look at frames skip rendering
         sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
                         camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive)
         est = make_estimator(c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT,

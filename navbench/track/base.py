@@ -62,18 +62,3 @@ def config_from_options(base: Any, options: dict[str, Any], what: str) -> Any:
     conv = {k: (tuple(float(x) for x in v) if isinstance(getattr(base, k), tuple) else v)
             for k, v in options.items()}
     return replace(base, **conv)
-
-
-def make_estimator(name: str, **kwargs) -> Estimator:
-    """Build estimator ``name`` (built-in or plugin): :func:`navbench.track.registry.make_estimator`,
-    kept here for the callers that import it from this module."""
-    from navbench.track.registry import make_estimator as make
-
-    return make(name, **kwargs)
-
-
-def estimator_names() -> list[str]:
-    """Every estimator name, built-in and plugin: :func:`navbench.track.registry.known_estimators`."""
-    from navbench.track.registry import known_estimators
-
-    return known_estimators()

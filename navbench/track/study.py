@@ -155,7 +155,7 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     from navbench.geometry import camera_by_name
     from navbench.sim.camera import RaycastCamera
     from navbench.sim.dynamics import Control
-    from navbench.track.base import make_estimator
+    from navbench.track.registry import make_estimator
 
     intr = camera_by_name(config.camera)
     if trajectories is None:

@@ -14,7 +14,7 @@ from navbench.plan.shortest import shortest_path
 from navbench.plan.tasks import Task
 from navbench.sim.dynamics import MAX_STEP
 from navbench.sim.world import Simulator
-from navbench.track.base import make_estimator
+from navbench.track.registry import make_estimator
 
 from .levels import door_rooms, open_room, two_rooms
 

@@ -11,7 +11,7 @@ from navbench.errors import TrackingError
 from navbench.geometry import HALF_CAMERA, Intrinsics
 from navbench.sim.dynamics import Control, predict
 from navbench.track import emission
-from navbench.track.base import make_estimator
+from navbench.track.registry import make_estimator
 
 from .synth import small_level
 

@@ -12,7 +12,7 @@ from navbench.geometry import HALF_CAMERA, Frame, Intrinsics, camera_pose
 from navbench.sim.dynamics import Control, predict
 from navbench.track import eq7, ours
 from navbench.track.lie import se3_exp
-from navbench.track.base import make_estimator
+from navbench.track.registry import make_estimator
 
 from .synth import flat_wall, render_box, small_level
 

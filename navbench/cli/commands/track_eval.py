@@ -89,7 +89,9 @@ def register(app: typer.Typer) -> None:
                                   estimators=names, camera=camera, seed=seed,
                                   estimator_options=opts,
                                   trajectory_limits={"emission": emission_trajectories})
-        needs_map = any(n in ("ours", "emission") for n in names)
+        from navbench.track.registry import uses_map
+
+        needs_map = any(uses_map(n) for n in names)
         t0 = time.perf_counter()
 
         def study(ui, rdb):
