@@ -31,7 +31,7 @@ def bench_map(level, level_file: Path | None, cache_root: str | Path = "results/
     (matched by the sha256 of ``level_file``), else :func:`voxelize_level` on the paper grid."""
     import hashlib
 
-    from navbench.worldmodel.grid import grid_for_level, load_map, voxelize_level
+    from navbench.worldmodel.grid import VoxelMap, grid_for_level, voxelize_level
 
     root = Path(cache_root)
     spec = grid_for_level(level)
@@ -47,7 +47,7 @@ def bench_map(level, level_file: Path | None, cache_root: str | Path = "results/
                     continue
                 try:
                     store.verify(stage, info.key)
-                    vmap = load_map(info.path / "map.npz")
+                    vmap = VoxelMap.load(info.path / "map.npz")
                 except ArtifactError:
                     continue
                 if stage == "true-map" and vmap.spec != spec:
@@ -83,11 +83,10 @@ def time_sim_step(level, repeats: int, warmup: int = 10, seed: int = 0) -> list[
 def time_map_render(level, vmap, intrinsics: Intrinsics, repeats: int, warmup: int = 2, seed: int = 0,
                     budget_s: float | None = None) -> list[float]:
     """One fast (numba) render of ``vmap`` from free-space poses, with a kept
-    :class:`~navbench.worldmodel.fastrender.FastRenderer` (as the trackers use it)."""
+    :class:`~navbench.worldmodel.fastrender.FastRenderer` (``vmap.renderer``, as the trackers use it)."""
     from navbench.sim.bench import bench_poses
-    from navbench.worldmodel.fastrender import FastRenderer
 
-    fr = FastRenderer(vmap, intrinsics, CAMERA_HEIGHT)
+    fr = vmap.renderer(intrinsics, CAMERA_HEIGHT)
     poses = bench_poses(level, warmup + repeats, seed)
     return timed_loop(lambda k: _ms(lambda: fr.render(poses[k])), repeats, warmup, budget_s)
 
@@ -192,9 +191,8 @@ def far_pair(level, vmap, seed: int = 0, candidates: int = 48) -> tuple[np.ndarr
     map's band slice without the straight-line shortcut: ``(start_xy, goal_xy)``."""
     from navbench.plan.astar import make_planner_map, plan_on_map, straight_line_free
     from navbench.sim.bench import bench_poses
-    from navbench.worldmodel.grid import occupancy_slice
 
-    occ2d, xs, ys = occupancy_slice(vmap, "band")
+    occ2d, xs, ys = vmap.occupancy_slice("band")
     pm = make_planner_map(occ2d, xs, ys)
     pts = bench_poses(level, candidates, seed)[:, :2]
     d = np.linalg.norm(pts[:, None] - pts[None], axis=-1)
@@ -210,9 +208,8 @@ def time_plan(level, vmap, repeats: int, warmup: int = 1, seed: int = 0,
     """One A* plan across the level (the :func:`far_pair`) on the map's band slice, with the
     per-map distance transform precomputed (as the episode loop does)."""
     from navbench.plan.astar import make_planner_map, plan_on_map
-    from navbench.worldmodel.grid import occupancy_slice
 
-    occ2d, xs, ys = occupancy_slice(vmap, "band")
+    occ2d, xs, ys = vmap.occupancy_slice("band")
     pm = make_planner_map(occ2d, xs, ys)
     a, b = far_pair(level, vmap, seed)
     return timed_loop(lambda k: _ms(lambda: plan_on_map(pm, a, b)), repeats, warmup, budget_s)
@@ -317,9 +314,8 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
     from navbench.plan.astar import make_planner_map
     from navbench.sim.world import Simulator
     from navbench.track.registry import make_estimator
-    from navbench.worldmodel.grid import occupancy_slice
 
-    occ2d, xs, ys = occupancy_slice(vmap, "band")
+    occ2d, xs, ys = vmap.occupancy_slice("band")
     pm = make_planner_map(occ2d, xs, ys)
     tasks = bench_tasks(level, vmap, 64, seed)
 
@@ -373,14 +369,13 @@ def time_navigation(level_file: Path, vmap, tasks: list, estimators: tuple[str, 
         run_navigation_stage,
     )
     from navbench.plan.tasks import save_tasks
-    from navbench.worldmodel.grid import save_map
 
     def sha(p: Path) -> str:
         return hashlib.sha256(Path(p).read_bytes()).hexdigest()
 
     with tempfile.TemporaryDirectory(prefix="navbench-bench-") as tmp:
         d = Path(tmp)
-        map_path = save_map(vmap, d / "map.npz")
+        map_path = vmap.save(d / "map.npz")
         task_path = save_tasks(d / "tasks.json", vmap.meta.get("level", "bench"), tasks, seed=seed)
         warm_path = save_tasks(d / "warm.json", vmap.meta.get("level", "bench"), tasks[:max(1, workers)], seed=seed)
         lref = Ref("make-level", sha(level_file), Path(level_file), True, "bench")

@@ -5,7 +5,8 @@ stored episode rows), draws the paper's figures with :mod:`navbench.pipeline.plo
 them as base64 PNG (no external resources: no scripts, fonts or style sheets are fetched).
 Trajectories and maps come through two callables so the report does not depend on where they
 are stored: ``load_trajectory(traj_key) -> {"true_poses", "est_poses", "target"}`` and
-``load_map(map_key) -> VoxelMap``; :func:`store_loaders` builds both from the stage cache.
+``load_map(map_key) -> WorldModel`` (:mod:`navbench.worldmodel.base`; the isometric view needs
+a voxel map, another kind gets a note); :func:`store_loaders` builds both from the stage cache.
 
 Sections: run metadata; SPL by estimator and noise (Fig. 5a, with intervals, next to the paper's
 values); the full score table; location/orientation RMSE CDFs (Fig. 4a,b: from the tracking-study
@@ -505,8 +506,8 @@ def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryL
 
     def load_map(key: str):
         from navbench.pipeline.artifacts import MAP_FILE
-        from navbench.worldmodel.grid import load_map as _load
+        from navbench.worldmodel.base import load_world_model
 
-        return _load(store.load("fit-map", key) / MAP_FILE)
+        return load_world_model(store.load("fit-map", key) / MAP_FILE)
 
     return load_trajectory, load_map

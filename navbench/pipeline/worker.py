@@ -21,11 +21,11 @@ def _worker_inputs(spec: ChunkSpec):
     if hit is None:
         from navbench.levelio import load_level
         from navbench.plan.tasks import load_tasks
-        from navbench.worldmodel.grid import load_map, occupancy_slice
+        from navbench.worldmodel.base import load_world_model
 
         level = load_level(spec.level_path)
-        vmap = load_map(spec.map_path)
-        occ2d, xs, ys = occupancy_slice(vmap, spec.slice_mode)
+        vmap = load_world_model(spec.map_path)
+        occ2d, xs, ys = vmap.occupancy_slice(spec.slice_mode)
         tasks = {t.id: t for t in load_tasks(spec.tasks_path)}
         hit = (level, vmap, occ2d, xs, ys, tasks)
         _WORKER_MEMO.clear()  # one level at a time keeps worker memory flat

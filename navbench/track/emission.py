@@ -92,7 +92,8 @@ def _hat_t(w):
 class EmissionObjective:
     """The emission negative log-likelihood of one observation as a function of the pose.
 
-    ``vmap``: the :class:`~navbench.worldmodel.grid.VoxelMap`; tensors are built once.
+    ``vmap``: a :class:`~navbench.worldmodel.base.DifferentiableWorldModel` (a voxel map); its
+    :meth:`ray_renderer` (the map's tensors) is built once.
     :meth:`value_and_grad` returns the scaled NLL over the pixels ``idx`` and its gradient w.r.t.
     the parameters (planar ``(x, y, theta)``, or a right perturbation ``(rho, phi)`` of the
     camera pose at ``delta = 0`` for se3).
@@ -101,23 +102,23 @@ class EmissionObjective:
     def __init__(self, vmap, intrinsics: Intrinsics, camera_height: float, cfg: EmissionConfig):
         import torch
 
-        from navbench.worldmodel.fastrender import map_step
-
+        if not callable(getattr(vmap, "ray_renderer", None)):
+            raise TrackingError(f"the 'emission' estimator needs a differentiable world model "
+                                f"(one with ray_renderer, e.g. a voxel map); got a {type(vmap).__name__}")
         self.vmap = vmap
         self.intr = intrinsics
         self.camera_height = float(camera_height)
         self.cfg = cfg
-        self.occ = torch.from_numpy(np.ascontiguousarray(vmap.occ, dtype=np.float32))
-        self.col = torch.from_numpy(np.ascontiguousarray(vmap.col, dtype=np.float32))
-        self.step = map_step(vmap, cfg.step)
-        self.n = int(round(cfg.max_range / self.step))
+        self.render_rays = vmap.ray_renderer(cfg.step, cfg.max_range)
+        self.step = self.render_rays.step
+        self.n = self.render_rays.n
         s2 = cfg.sigma2 if cfg.sigma2 is not None else vmap.meta.get("sigma2", cfg.default_sigma2)
         self.sigma2 = torch.tensor(float(s2), dtype=torch.float32)
 
     def value_and_grad(self, param: str, state, frame: Frame, idx: np.ndarray) -> tuple[float, np.ndarray]:
         import torch
 
-        from navbench.worldmodel.diffrender import laplace_nll, render_rays
+        from navbench.worldmodel.diffrender import laplace_nll
 
         rays = torch.from_numpy(_rays_flat(self.intr)[idx].astype(np.float32))
         if param == "planar":
@@ -134,8 +135,7 @@ class EmissionObjective:
             var = d
         dirs = rays @ R.T
         origins = t.expand_as(dirs)
-        out = render_rays(self.occ, self.col, self.vmap.spec, float(self.vmap.tau), origins, dirs,
-                          self.step, self.n, colour_moves_surface=True)
+        out = self.render_rays(origins, dirs, colour_moves_surface=True)
         depth_obs = np.asarray(frame.depth).reshape(-1)[idx]
         ok = np.asarray(frame.valid).reshape(-1)[idx] & np.isfinite(depth_obs)
         d_obs = torch.from_numpy(np.where(ok, depth_obs, 0.0).astype(np.float32))

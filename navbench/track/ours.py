@@ -229,12 +229,14 @@ def align(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
 # ------------------------------------------------------------------------------ estimators
 
 def default_renderer(vmap, intrinsics: Intrinsics, camera_height: float) -> Callable:
-    """``pose -> Frame`` rendering ``vmap`` with the fast numba renderer (``render_map``'s engine)."""
+    """``pose -> Frame`` rendering the world model ``vmap`` (:meth:`WorldModel.renderer
+    <navbench.worldmodel.base.WorldModel.renderer>`; for a voxel map the fast numba renderer)."""
     if vmap is None:
         raise TrackingError("this estimator needs a map (vmap=...) or a renderer (renderer=...)")
-    from navbench.worldmodel.fastrender import FastRenderer
-
-    return FastRenderer(vmap, intrinsics, camera_height).render
+    if not callable(getattr(vmap, "renderer", None)):
+        raise TrackingError(f"this estimator needs a world model with a renderer; got a "
+                            f"{type(vmap).__name__}")
+    return vmap.renderer(intrinsics, camera_height).render
 
 
 class _PredictionToObservation:

@@ -38,8 +38,8 @@ import numba as nb
 import numpy as np
 import torch
 
-from navbench.worldmodel.fastrender import _cell, _f  # numba helpers shared with the renderer
-from navbench.worldmodel.grid import GridSpec
+from navbench.worldmodel.fastrender import DEFAULT_STEP, _cell, _f  # numba helpers shared with the renderer
+from navbench.worldmodel.gridspec import GridSpec
 
 
 class RayRender(NamedTuple):
@@ -248,6 +248,30 @@ def render_rays(occ: torch.Tensor, col: torch.Tensor, spec: GridSpec, tau: float
     hit = hit & (f[1] > tau).detach() & (f[0] <= tau).detach()
     return _finish(col, spec, origins, dirs, f[0], f[1], k_minus, step, tau, hit,
                    colour_moves_surface)
+
+
+class GridRayRenderer:
+    """:func:`render_rays` bound to one map: ``(origins, dirs) -> RayRender`` with gradients
+    w.r.t. the rays (the emission tracker differentiates it w.r.t. the camera pose).
+
+    ``occ``, ``col``: the map's numpy grids, wrapped as torch tensors once (sharing memory);
+    ``step`` (m): sample spacing Delta, default ``meta['step']`` or 0.1 m (as
+    :func:`navbench.worldmodel.fastrender.map_step`); ``n = round(max_range / step)`` samples.
+    """
+
+    def __init__(self, occ: np.ndarray, col: np.ndarray, spec: GridSpec, tau: float, meta: dict,
+                 step: float | None = None, max_range: float = 20.0):
+        self.occ = torch.from_numpy(np.ascontiguousarray(occ, dtype=np.float32))
+        self.col = torch.from_numpy(np.ascontiguousarray(col, dtype=np.float32))
+        self.spec = spec
+        self.tau = float(tau)
+        self.step = float(step) if step is not None else float(meta.get("step", DEFAULT_STEP))
+        self.n = int(round(max_range / self.step))
+
+    def __call__(self, origins: torch.Tensor, dirs: torch.Tensor,
+                 colour_moves_surface: bool = False) -> RayRender:
+        return render_rays(self.occ, self.col, self.spec, self.tau, origins, dirs, self.step,
+                           self.n, colour_moves_surface=colour_moves_surface)
 
 
 def world_rays(T_wc: torch.Tensor | np.ndarray, cam_rays: np.ndarray, dtype=torch.float32):

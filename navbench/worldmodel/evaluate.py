@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from navbench.worldmodel.grid import VoxelMap
 from navbench.worldmodel.views import Views
 
 
-def evaluate_map(vmap: VoxelMap, level, heldout: Views, step: float | None = None) -> dict:
-    """Render ``heldout`` views from ``vmap`` and compare; slice scores when ``level`` is given.
+def evaluate_map(vmap, level, heldout: Views, step: float | None = None) -> dict:
+    """Render ``heldout`` views from the world model ``vmap`` and compare; slice scores when
+    ``level`` is given. The renderer is ``vmap.renderer`` with ``meta['max_range']`` (20 m).
 
     ``depth_mae_m``: mean |rendered - observed| z-depth (m) over pixels valid in both;
     ``rgb_l1``: mean absolute colour error per channel (in [0, 1]) over the same pixels;
@@ -18,10 +18,8 @@ def evaluate_map(vmap: VoxelMap, level, heldout: Views, step: float | None = Non
     ``slice_precision`` / ``slice_recall``: the band occupancy slice vs the level's raster with
     a one-cell tolerance (:func:`navbench.worldmodel.grid.slice_scores`).
     """
-    from navbench.worldmodel.fastrender import FastRenderer
-
-    fr = FastRenderer(vmap, heldout.intrinsics, heldout.camera_height,
-                      max_range=float(vmap.meta.get("max_range", 20.0)), step=step)
+    fr = vmap.renderer(heldout.intrinsics, heldout.camera_height,
+                       max_range=float(vmap.meta.get("max_range", 20.0)), step=step)
     abs_d, abs_c, n_both, n_obs = 0.0, 0.0, 0, 0
     for k in range(len(heldout)):
         frame = fr.render(heldout.poses[k])

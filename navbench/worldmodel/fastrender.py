@@ -21,6 +21,10 @@ interpolation cell, the Chebyshev distance to the nearest cell where ``f`` could
 ``tau``, so a ray jumps over the samples that provably cannot cross (the first crossing found
 is the one the sample-by-sample march finds, so the images are identical). :class:`FastRenderer` keeps that
 table and the ray directions between frames; :func:`render_map` reuses one per map object.
+
+The ``vmap`` arguments are :class:`~navbench.worldmodel.grid.VoxelMap` objects (anything with
+``occ``, ``col``, ``spec``, ``tau`` and ``meta``); this module does not import that class, which
+delegates its ``renderer`` method here.
 """
 
 from __future__ import annotations
@@ -31,13 +35,12 @@ import numba as nb
 import numpy as np
 
 from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE, Frame, Intrinsics, camera_pose, pixel_rays
-from navbench.worldmodel.grid import VoxelMap
 
 #: Default ray sample spacing Delta (m) when the map does not record one: the paper's 20 m / 200.
 DEFAULT_STEP = MAX_RANGE / 200
 
 
-def map_step(vmap: VoxelMap, step: float | None) -> float:
+def map_step(vmap, step: float | None) -> float:
     """The sample spacing to render ``vmap`` with: ``step``, else ``vmap.meta['step']``, else 0.1 m."""
     if step is not None:
         return float(step)
@@ -266,7 +269,7 @@ class FastRenderer:
     :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster).
     """
 
-    def __init__(self, vmap: VoxelMap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
+    def __init__(self, vmap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                  max_range: float = MAX_RANGE, step: float | None = None,
                  parallel: bool | None = None):
         if parallel is None:
@@ -307,13 +310,13 @@ _CACHE: dict = {}
 _CACHE_SIZE = 8
 
 
-def _fingerprint(vmap: VoxelMap) -> tuple:
+def _fingerprint(vmap) -> tuple:
     occ = vmap.occ
     return (occ.ctypes.data, vmap.col.ctypes.data, occ.shape, vmap.tau,
             float(occ[::3, ::3, ::2].sum(dtype=np.float64)), float(vmap.col[::5, ::5, ::3].sum(dtype=np.float64)))
 
 
-def cached_renderer(vmap: VoxelMap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
+def cached_renderer(vmap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                     max_range: float = MAX_RANGE, step: float | None = None) -> FastRenderer:
     """A :class:`FastRenderer` reused across calls for the same map object and camera.
 
@@ -335,7 +338,7 @@ def cached_renderer(vmap: VoxelMap, intrinsics: Intrinsics, camera_height: float
     return fr
 
 
-def render_map(vmap: VoxelMap, pose, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
+def render_map(vmap, pose, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                max_range: float = MAX_RANGE, step: float | None = None) -> Frame:
     """Render ``vmap`` from the camera on planar ``pose`` -> :class:`~navbench.geometry.Frame`.
 
@@ -345,7 +348,7 @@ def render_map(vmap: VoxelMap, pose, intrinsics: Intrinsics, camera_height: floa
     return cached_renderer(vmap, intrinsics, camera_height, max_range, step).render(pose)
 
 
-def render_map_T(vmap: VoxelMap, T_wc, intrinsics: Intrinsics, max_range: float = MAX_RANGE,
+def render_map_T(vmap, T_wc, intrinsics: Intrinsics, max_range: float = MAX_RANGE,
                  step: float | None = None) -> Frame:
     """Render ``vmap`` from an arbitrary 6-DoF camera ``T_wc`` (4x4 camera-to-world)."""
     return cached_renderer(vmap, intrinsics, CAMERA_HEIGHT, max_range, step).render_T(T_wc)

@@ -18,14 +18,17 @@ Occupancy is a real number (not a probability): a point is occupied where ``f > 
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
 from navbench.errors import ArtifactError
-from navbench.geometry import CAMERA_HEIGHT
+from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE
+from navbench.worldmodel.gridspec import GridSpec
 
 #: Default occupancy threshold tau of eq. 1.
 DEFAULT_TAU = 0.5
@@ -33,48 +36,6 @@ DEFAULT_TAU = 0.5
 PAPER_GRID_SHAPE = (200, 200, 20)
 #: Map file format version (bumped when the .npz layout changes).
 MAP_FORMAT_VERSION = 1
-
-
-@dataclass(frozen=True)
-class GridSpec:
-    """An axis-aligned grid of cells.
-
-    ``lo``, ``hi``: world-frame corners of the box (metres); ``shape``: ``(nx, ny, nz)`` cells;
-    cell centres at ``lo + (i + 0.5) * (hi - lo) / shape``.
-    """
-
-    lo: tuple[float, float, float]
-    hi: tuple[float, float, float]
-    shape: tuple[int, int, int]
-
-    def __post_init__(self):
-        lo = tuple(float(v) for v in self.lo)
-        hi = tuple(float(v) for v in self.hi)
-        shape = tuple(int(v) for v in self.shape)
-        if len(lo) != 3 or len(hi) != 3 or len(shape) != 3:
-            raise ArtifactError("grid spec: lo, hi and shape need 3 entries each")
-        if any(h <= l for l, h in zip(lo, hi)) or any(n < 2 for n in shape):
-            raise ArtifactError(f"grid spec: need hi > lo and at least 2 cells per axis, got "
-                                f"lo={lo} hi={hi} shape={shape}")
-        object.__setattr__(self, "lo", lo)
-        object.__setattr__(self, "hi", hi)
-        object.__setattr__(self, "shape", shape)
-
-    @property
-    def size(self) -> np.ndarray:
-        """Cell size per axis ``(3,)`` float64, metres."""
-        return (np.asarray(self.hi) - np.asarray(self.lo)) / np.asarray(self.shape)
-
-    def centres(self, axis: int) -> np.ndarray:
-        """Cell-centre coordinates along ``axis`` (0, 1, 2), shape ``(shape[axis],)`` metres."""
-        return self.lo[axis] + (np.arange(self.shape[axis]) + 0.5) * self.size[axis]
-
-    def to_index(self, points) -> np.ndarray:
-        """Continuous cell indices ``u = (p - lo) / size - 0.5`` of world points ``(..., 3)``."""
-        return (np.asarray(points, np.float64) - np.asarray(self.lo)) / self.size - 0.5
-
-    def to_dict(self) -> dict:
-        return {"lo": list(self.lo), "hi": list(self.hi), "shape": list(self.shape)}
 
 
 @dataclass
@@ -93,11 +54,61 @@ class VoxelMap:
     tau: float = DEFAULT_TAU
     meta: dict = field(default_factory=dict)
 
+    #: The world-model kind (:mod:`navbench.worldmodel.base`); map files without a ``kind`` in
+    #: their header are voxel maps, so this kind is not written (the file format is unchanged).
+    kind: ClassVar[str] = "voxel"
+
     def __post_init__(self):
         self.occ = np.ascontiguousarray(self.occ, dtype=np.float32)
         self.col = np.ascontiguousarray(self.col, dtype=np.float32)
         _check_arrays(self.spec, self.occ, self.col, "voxel map")
         self.tau = float(self.tau)
+
+    # The world-model interface (navbench.worldmodel.base.WorldModel). Each method delegates to
+    # the module function of the same job, which stays the arrays-in, arrays-out reference.
+
+    def occupancy_slice(self, mode: str = "band", z_low: float = 0.05, z_high: float = 1.0,
+                        height: float = CAMERA_HEIGHT):
+        """``(occ2d, xs, ys)`` the planner reads: :func:`occupancy_slice` of this map."""
+        return occupancy_slice(self, mode, z_low, z_high, height)  # the module function
+
+    def renderer(self, intrinsics, camera_height: float = CAMERA_HEIGHT,
+                 max_range: float = MAX_RANGE, step: float | None = None,
+                 parallel: bool | None = None):
+        """A fresh :class:`~navbench.worldmodel.fastrender.FastRenderer` of this map (``.render(pose)
+        -> Frame``); ``step`` defaults to ``meta['step']``, see there."""
+        from navbench.worldmodel.fastrender import FastRenderer
+
+        return FastRenderer(self, intrinsics, camera_height, max_range, step, parallel)
+
+    def ray_renderer(self, step: float | None = None, max_range: float = MAX_RANGE):
+        """The differentiable ray renderer of this map (the emission tracker's):
+        :class:`~navbench.worldmodel.diffrender.GridRayRenderer`."""
+        from navbench.worldmodel.diffrender import GridRayRenderer
+
+        return GridRayRenderer(self.occ, self.col, self.spec, self.tau, self.meta, step, max_range)
+
+    def save(self, path) -> Path:
+        """Write this map to ``path`` (:func:`save_map`); returns the path."""
+        return save_map(self, path)
+
+    @classmethod
+    def load(cls, path) -> "VoxelMap":
+        """Read a map file (:func:`load_map`); :class:`ArtifactError` names what is wrong."""
+        return load_map(path)
+
+    def content_hash(self) -> str:
+        """sha256 hex of what :meth:`save` stores (header, float32 occupancy, float16 colour).
+
+        Stable: equal for a map and the map loaded back from its file, independent of the
+        file's zip timestamps, different when any stored voxel, ``tau`` or ``meta`` differs.
+        """
+        h = hashlib.sha256(b"navbench-world-model\0voxel\0")
+        h.update(json.dumps(_header(self), sort_keys=True, default=float).encode())
+        for a in (self.occ.astype(np.float32), self.col.astype(np.float16)):
+            h.update(f"\0{a.dtype.str}{a.shape}\0".encode())
+            h.update(np.ascontiguousarray(a).tobytes())
+        return h.hexdigest()
 
 
 def _check_arrays(spec: GridSpec, occ: np.ndarray, col: np.ndarray, where: str) -> None:
@@ -202,21 +213,30 @@ def occupancy_slice(vmap: VoxelMap, mode: str = "band", z_low: float = 0.05,
 
 # ------------------------------------------------------------------------------ files
 
+def _header(vmap: VoxelMap) -> dict:
+    """The JSON header of a map file (what :func:`load_map` reads besides the arrays)."""
+    return {"format_version": MAP_FORMAT_VERSION, "spec": vmap.spec.to_dict(), "tau": vmap.tau,
+            "meta": vmap.meta}
+
+
 def save_map(vmap: VoxelMap, path) -> Path:
     """Write ``vmap`` as one uncompressed ``.npz`` (occ float32, col float16, spec, tau, meta)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.npz")
-    header = {"format_version": MAP_FORMAT_VERSION, "spec": vmap.spec.to_dict(), "tau": vmap.tau,
-              "meta": vmap.meta}
     np.savez(tmp, occ=vmap.occ.astype(np.float32), col=vmap.col.astype(np.float16),
-             header=np.array(json.dumps(header, default=float)))
+             header=np.array(json.dumps(_header(vmap), default=float)))
     tmp.replace(path)
     return path
 
 
 def load_map(path) -> VoxelMap:
-    """Read and validate a map written by :func:`save_map`; :class:`ArtifactError` names the problem."""
+    """Read and validate a map written by :func:`save_map`; :class:`ArtifactError` names the problem.
+
+    The header and the arrays' declared shapes and dtypes are checked before any array is read,
+    so a file declaring an absurd grid (a compressed npz can declare terabytes in a few bytes)
+    is refused instead of exhausting the memory.
+    """
     path = Path(path)
     if not path.is_file():
         raise ArtifactError(f"{path}: no such map file")
@@ -226,22 +246,71 @@ def load_map(path) -> VoxelMap:
             if missing:
                 raise ArtifactError(f"{path}: not a navbench map (missing {sorted(missing)})")
             header = json.loads(str(z["header"]))
+            spec, tau = _parse_header(header, path)
+            _check_declared(z, spec, path)
             occ, col = z["occ"], z["col"]
     except ArtifactError:
         raise
     except Exception as e:  # truncated zip, bad JSON, ...
         raise ArtifactError(f"{path}: unreadable map file ({type(e).__name__}: {e})") from None
+    _check_arrays(spec, occ, col, str(path))
+    return VoxelMap(spec, occ.astype(np.float32), col.astype(np.float32), tau, header.get("meta", {}))
+
+
+#: The most cells a map file may declare (16 bytes each in memory: float32 occ + RGB col).
+MAX_MAP_CELLS = 1 << 30
+
+
+def _parse_header(header, path: Path) -> tuple[GridSpec, float]:
+    """``(spec, tau)`` of a map file's JSON header; :class:`ArtifactError` naming ``path``."""
+    if not isinstance(header, dict):
+        raise ArtifactError(f"{path}: bad map header (a JSON object expected, got {type(header).__name__})")
     if header.get("format_version") != MAP_FORMAT_VERSION:
         raise ArtifactError(f"{path}: map format version {header.get('format_version')!r}, "
                             f"this navbench reads {MAP_FORMAT_VERSION}")
+    if not isinstance(header.get("meta", {}), dict):
+        raise ArtifactError(f"{path}: bad map header (meta is not a JSON object)")
     try:
         s = header["spec"]
         spec = GridSpec(tuple(s["lo"]), tuple(s["hi"]), tuple(s["shape"]))
         tau = float(header["tau"])
+    except ArtifactError as e:
+        raise ArtifactError(f"{path}: {e}") from None
     except (KeyError, TypeError, ValueError) as e:
         raise ArtifactError(f"{path}: bad map header ({e})") from None
-    _check_arrays(spec, occ, col, str(path))
-    return VoxelMap(spec, occ.astype(np.float32), col.astype(np.float32), tau, header.get("meta", {}))
+    if not np.isfinite(tau) or not np.all(np.isfinite(spec.lo + spec.hi)):
+        raise ArtifactError(f"{path}: bad map header (tau {tau}, lo {list(spec.lo)}, hi "
+                            f"{list(spec.hi)}: all must be finite)")
+    cells = int(np.prod(spec.shape, dtype=np.float64))
+    if cells > MAX_MAP_CELLS:
+        raise ArtifactError(f"{path}: grid {list(spec.shape)} has {cells} cells, more than the "
+                            f"{MAX_MAP_CELLS} a map file may have")
+    return spec, tau
+
+
+def _check_declared(z, spec: GridSpec, path: Path) -> None:
+    """Shapes and dtypes of ``occ`` and ``col`` from their ``.npy`` headers (nothing read yet)
+    match ``spec``, and the arrays fit in the available memory."""
+    from numpy.lib import format as npy
+
+    from navbench.errors import ConfigError
+    from navbench.worldmodel.memory import check_memory
+
+    for name, want in (("occ", spec.shape), ("col", spec.shape + (3,))):
+        with z.zip.open(name + ".npy") as f:
+            version = npy.read_magic(f)
+            read = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+            shape, _, dtype = read(f)
+        if tuple(shape) != want:
+            what = "the grid spec says" if name == "occ" else "expected"
+            raise ArtifactError(f"{path}: {name} has shape {tuple(shape)}, {what} {want}")
+        if dtype.kind not in "fiu":
+            raise ArtifactError(f"{path}: {name} has dtype {dtype}, a real number type expected")
+    cells = int(np.prod(spec.shape, dtype=np.int64))
+    try:
+        check_memory(cells * 32, f"{path}: grid {list(spec.shape)} ({cells} cells)")
+    except ConfigError as e:
+        raise ArtifactError(str(e)) from None
 
 
 # ------------------------------------------------------------------------------ ground truth
@@ -303,17 +372,20 @@ def cell_tolerance_scores(pred: np.ndarray, true: np.ndarray, tol_cells: int = 1
     return prec, rec
 
 
-def slice_scores(vmap: VoxelMap, level, mode: str = "band", z_low: float = 0.05,
+def slice_scores(vmap, level, mode: str = "band", z_low: float = 0.05,
                  z_high: float = 1.0, tol_cells: int = 1) -> tuple[float, float]:
-    """Precision, recall of the map's occupancy slice vs ``level.occupancy_raster`` (same cells).
+    """Precision, recall of a world model's occupancy slice vs ``level.occupancy_raster`` (same cells).
 
-    The true raster uses the grid's ``x`` cell size and the band's ``z_low``; both rasters are
+    The true raster uses the slice's ``x`` cell size (a voxel map's exact ``spec.size[0]``; for
+    another world model the spacing of its ``xs``) and the band's ``z_low``; both rasters are
     cropped to the floor plan before :func:`cell_tolerance_scores`.
     """
     from navbench.level import occupancy_raster
 
-    occ2d, xs, ys = occupancy_slice(vmap, mode, z_low, z_high)
-    true, txs, tys = occupancy_raster(level, float(vmap.spec.size[0]), z_low=z_low, z_high=z_high)
+    occ2d, xs, ys = vmap.occupancy_slice(mode, z_low, z_high)
+    spec = getattr(vmap, "spec", None)
+    cell = float(spec.size[0]) if isinstance(spec, GridSpec) else float(xs[1] - xs[0])
+    true, txs, tys = occupancy_raster(level, cell, z_low=z_low, z_high=z_high)
     nx, ny = min(true.shape[0], occ2d.shape[0]), min(true.shape[1], occ2d.shape[1])
     if not (np.allclose(txs[:nx], xs[:nx], atol=1e-6) and np.allclose(tys[:ny], ys[:ny], atol=1e-6)):
         raise ArtifactError("slice scores: the map's xy cells do not match the level raster "

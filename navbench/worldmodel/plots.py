@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from navbench.worldmodel.grid import VoxelMap, occupancy_slice
+from navbench.worldmodel.grid import VoxelMap
 
 
-def draw_slice(ax, vmap: VoxelMap, mode: str = "band", z_low: float = 0.05, z_high: float = 1.0,
+def draw_slice(ax, vmap, mode: str = "band", z_low: float = 0.05, z_high: float = 1.0,
                true_occ: np.ndarray | None = None, title: str | None = None):
-    """Draw the occupancy slice (:func:`occupancy_slice`) of ``vmap`` into the 2D axis ``ax``.
+    """Draw the occupancy slice (``vmap.occupancy_slice``) of the world model ``vmap`` into the
+    2D axis ``ax``.
 
     Occupied cells are dark, free cells white; ``x`` and ``y`` in world metres. ``true_occ``
     (optional ``(nx', ny')`` bool on the same cells, cropped like ``level.occupancy_raster``)
     is outlined in red for comparison. Returns the image artist.
     """
-    occ2d, xs, ys = occupancy_slice(vmap, mode, z_low, z_high)
+    occ2d, xs, ys = vmap.occupancy_slice(mode, z_low, z_high)
     dx, dy = xs[1] - xs[0], ys[1] - ys[0]
     extent = (xs[0] - dx / 2, xs[-1] + dx / 2, ys[0] - dy / 2, ys[-1] + dy / 2)
     im = ax.imshow(occ2d.T, origin="lower", extent=extent, cmap="Greys", vmin=0, vmax=1,

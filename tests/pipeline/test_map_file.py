@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import sqlite3
 
 from tests.bad_input.conftest import assert_clean_error, nb, project  # noqa: F401  (fixture)
@@ -26,10 +25,12 @@ def test_a_map_file_drives_the_same_episodes_as_the_map_it_holds(project):
     mine.write_bytes(true_map.read_bytes())
     res = nb(*ARGS, "--map", "maps/{level}.npz")
     assert res.code == 0, res.output
-    key = hashlib.sha256(mine.read_bytes()).hexdigest()
+    from navbench.worldmodel.base import load_world_model
+
+    key = load_world_model(mine).content_hash()
     db = project / "results" / "navbench.db"
     from_file = _episodes(db, key)
-    assert len(from_file) == 4  # 2 tasks x 2 estimators, keyed by the file's sha256
+    assert len(from_file) == 4  # 2 tasks x 2 estimators, keyed by the map's content hash
     from_true = [r for r in _episodes(db) if r[-1] != key]
     assert [r[:-1] for r in from_file] == [r[:-1] for r in from_true]  # same map content, same episodes
 

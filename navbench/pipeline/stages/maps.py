@@ -52,7 +52,6 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
 
     def compute(d: Path) -> None:
         from navbench.worldmodel.fit import evaluate_map, fit_map
-        from navbench.worldmodel.grid import save_map
         from navbench.worldmodel.views import load_views
 
         train = load_views(views.path)
@@ -65,7 +64,7 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
         out.setdefault("fit_seconds", out.get("fit_time_s"))
         out.setdefault("steps", fit_cfg.steps)
         out["eval_views"] = int(cfg.eval_count)
-        save_map(vmap, d / MAP_FILE)
+        vmap.save(d / MAP_FILE)
         (d / METRICS_FILE).write_text(json.dumps(to_jsonable(out), indent=1, sort_keys=True))
 
     path, key, cached = ctx.run("fit-map", resolved,
@@ -93,11 +92,11 @@ def true_map_stage(ctx: StageContext, level: Ref, cfg: TrueMapConfig = TrueMapCo
     def compute(d: Path) -> None:
         import math
 
-        from navbench.worldmodel.grid import grid_for_level, save_map, voxelize_level
+        from navbench.worldmodel.grid import grid_for_level, voxelize_level
 
         lv = load_level_ref(level)
         shape = (max(2, math.ceil(lv.width / cfg.cell - 1e-9)), max(2, math.ceil(lv.depth / cfg.cell - 1e-9)), cfg.nz)
-        save_map(voxelize_level(lv, grid_for_level(lv, shape=shape)), d / MAP_FILE)
+        voxelize_level(lv, grid_for_level(lv, shape=shape)).save(d / MAP_FILE)
         (d / METRICS_FILE).write_text(json.dumps({"source": "true", "steps": 0}))
 
     path, key, cached = ctx.run("true-map", cfg, {"level": level.key}, compute)
@@ -112,28 +111,34 @@ LEVEL_PLACEHOLDER = "{level}"
 
 
 def map_file_stage(ctx: StageContext, level: Ref, spec: str, what: str = "--map") -> Ref:
-    """A map the user brings: the file ``spec`` (``{level}`` replaced by the level's name), read
-    and checked now (format, arrays, and that its grid covers the level's floor plan), keyed by
-    its sha256. Nothing is copied into the cache; the episodes' cell keys hold the file's key."""
-    import hashlib
-
+    """A map the user brings: the file ``spec`` (``{level}`` replaced by the level's name), loaded
+    now through :func:`navbench.worldmodel.base.load_world_model` (any registered world-model
+    kind; its errors name the file) and checked to cover the level's floor plan, keyed by its
+    :meth:`~navbench.worldmodel.base.WorldModel.content_hash` (the same map saved again keeps
+    its key). Nothing is copied into the cache; the episodes' cell keys hold the map's key."""
     from navbench.levelio import load_level
-    from navbench.worldmodel.grid import load_map
+    from navbench.worldmodel.base import load_world_model
 
     path = Path(spec.replace(LEVEL_PLACEHOLDER, level.name))
     if not path.is_file():
         raise ConfigError(f"{what}: no such map file {str(path)!r} (or use fit or true)")
-    vmap = load_map(path)  # ArtifactError naming the file when it is not a valid map
+    model = load_world_model(path)
     lv = load_level(level.path, name=level.name or None)
-    lo, hi = vmap.spec.lo, vmap.spec.hi
+    _, xs, ys = model.occupancy_slice("band")
+    (x0, x1), (y0, y1) = _cell_extent(xs), _cell_extent(ys)
     tol = 1e-6
-    if lo[0] > tol or lo[1] > tol or hi[0] < lv.width - tol or hi[1] < lv.depth - tol:
-        raise ConfigError(f"{what}: {path}: the map's grid [{lo[0]:g}, {hi[0]:g}] x [{lo[1]:g}, "
-                          f"{hi[1]:g}] m does not cover level {level.name} ([0, {lv.width:g}] x "
-                          f"[0, {lv.depth:g}] m)")
-    key = hashlib.sha256(path.read_bytes()).hexdigest()
+    if x0 > tol or y0 > tol or x1 < lv.width - tol or y1 < lv.depth - tol:
+        raise ConfigError(f"{what}: {path}: the map's grid [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}] m "
+                          f"does not cover level {level.name} ([0, {lv.width:g}] x [0, {lv.depth:g}] m)")
+    key = model.content_hash()
     ctx.log(f"map: {level.name} from {path} ({key[:12]})")
-    meta = {"source": "file", "path": str(path), "steps": 0}
+    meta = {"source": "file", "path": str(path), "kind": model.kind, "steps": 0}
     if ctx.db is not None:
         ctx.db.record_map(level.name, key, meta)
     return Ref("map-file", key, path.resolve(), True, level.name, meta)
+
+
+def _cell_extent(centres) -> tuple[float, float]:
+    """The span ``[lo, hi]`` covered by equally spaced cell ``centres``."""
+    half = (float(centres[1]) - float(centres[0])) / 2 if len(centres) > 1 else 0.0
+    return float(centres[0]) - half, float(centres[-1]) + half

@@ -8,7 +8,8 @@ level's content key and the map's key. The map is one of
 * ``fit``: the profile's fitted world model (collect-views -> fit-map, built if missing), the
   map the paper's tracking study runs on;
 * ``true``: the level's true geometry voxelized on the default grid (an upper bound);
-* a path to a map file (the ``map.npz`` format), keyed by its sha256.
+* a path to a map file (the ``map.npz`` format, or a world-model plugin's), keyed by its
+  content hash.
 
 A study whose estimators read no map (``dynamics``, ``gt``) uses none (map key ``none``).
 Step times are measured when the study runs and cached with it: a cached rerun prints the
@@ -18,7 +19,6 @@ numbers of the run that computed them.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -78,14 +78,14 @@ def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
     path = Path(spec)
     if not path.is_file():
         raise ConfigError(f"--map: no such map file {spec!r} (or use {' or '.join(MAP_CHOICES)})")
-    key = hashlib.sha256(path.read_bytes()).hexdigest()
-    return StudyMap(spec, key, lambda: _load_map_file(path))
+    model = _load_map_file(path)  # a bad file fails here, before any trajectory is recorded
+    return StudyMap(spec, model.content_hash(), lambda: model)
 
 
 def _load_map_file(path: Path):
-    from navbench.worldmodel.grid import load_map
+    from navbench.worldmodel.base import load_world_model
 
-    return load_map(path)
+    return load_world_model(path)
 
 
 def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
