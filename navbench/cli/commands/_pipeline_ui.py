@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import sys
 import time
-from contextlib import contextmanager
-from typing import Iterator
 
 from rich.console import Console
 from rich.progress import (BarColumn, MofNCompleteColumn, Progress, ProgressColumn, SpinnerColumn,
@@ -84,13 +82,6 @@ class PipelineUI:
         return advance, (lambda t: self.progress.update(tid, total=t))
 
 
-def make_context(ui: PipelineUI, db=None, force: bool | set = False, cache_root: str = "results/cache"):
-    """A :class:`navbench.pipeline.stages.StageContext` that logs and draws on ``ui``."""
-    from navbench.pipeline.run import stage_context
-
-    return stage_context(ui, db, force, cache_root)
-
-
 def run_with_ui(body, json_mode: bool = False):
     """``body(ui)`` with rich progress bars drawn around it; Ctrl-C prints how to resume and
     exits 130 (the run is recorded as interrupted by :func:`navbench.pipeline.run.recorded_run`)."""
@@ -110,17 +101,6 @@ def load_profile_with(profile: str | None, **overrides):
     from navbench.pipeline.profiles import load_profile, override
 
     return override(load_profile(profile), **overrides)
-
-
-@contextmanager
-def database(url: str | None) -> Iterator:
-    from navbench.pipeline.db import ResultsDB
-
-    db = ResultsDB(url)
-    try:
-        yield db
-    finally:
-        db.close()
 
 
 def command_line() -> str:

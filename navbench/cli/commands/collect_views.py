@@ -10,7 +10,8 @@ from navbench.cli._help import profile_default, profile_help
 
 def _collect(level: str, count: int | None, camera: str | None, seed: int | None, profile: str | None,
              force: bool) -> None:
-    from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with, make_context
+    from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with
+    from navbench.pipeline.run import stage_context
     from navbench.pipeline.stages import LevelConfig, ViewsConfig, collect_views_stage, make_level_stage
 
     prof = load_profile_with(profile, camera=camera)
@@ -19,7 +20,7 @@ def _collect(level: str, count: int | None, camera: str | None, seed: int | None
     # refuse a collection that cannot fit in memory before the level or anything else is written
     cfg.check_memory("--count" if count is not None else f"profile {prof.name}: [views] count")
     with PipelineUI() as ui:
-        ctx = make_context(ui, force={"collect-views"} if force else set())
+        ctx = stage_context(ui, force={"collect-views"} if force else set())
         lv = make_level_stage(ctx, LevelConfig(level, prof.level_seed))
         ref = collect_views_stage(ctx, lv, cfg)
     state = "cached" if ref.cached else "collected"

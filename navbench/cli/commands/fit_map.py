@@ -38,14 +38,15 @@ def register(app: typer.Typer) -> None:
         depth MAE (m) and RGB L1 on the held-out views, precision and recall of the map's
         horizontal occupancy slice against the true level, fit time and steps.
         """
-        from navbench.cli.commands._pipeline_ui import PipelineUI, database, load_profile_with, make_context
+        from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with
+        from navbench.pipeline.run import open_db, stage_context
         from navbench.pipeline.stages import LevelConfig, MAP_METRIC_KEYS, fit_map_for_profile, make_level_stage
 
         prof = load_profile_with(profile, fit_steps=steps, fit_seed=seed, camera=camera)
         if device is not None:
             prof = dataclasses.replace(prof, fit={**prof.fit, "device": device})
-        with database(db) as rdb, PipelineUI(json_mode=json_out) as ui:
-            ctx = make_context(ui, rdb, force={"fit-map"} if force else set())
+        with open_db(db) as rdb, PipelineUI(json_mode=json_out) as ui:
+            ctx = stage_context(ui, rdb, force={"fit-map"} if force else set())
             lv = make_level_stage(ctx, LevelConfig(level, prof.level_seed))
             ref = fit_map_for_profile(ctx, prof, lv, None if views == "auto" else views)
         m = ref.meta

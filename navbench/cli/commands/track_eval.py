@@ -70,6 +70,7 @@ def register(app: typer.Typer) -> None:
         keyed by estimator (plus "meta").
         """
         import time
+        from contextlib import nullcontext
 
         from navbench.cli.commands._pipeline_ui import command_line, run_with_ui
         from navbench.pipeline.artifacts import load_study
@@ -95,24 +96,21 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
 
         def study(ui, rdb):
+            """Run (or fetch) the study; with a database, as a recorded run that stores its rows."""
             ctx = stage_context(ui, rdb)
             level_ref = study_level(ctx, level, prof.level_seed if prof else 1)
             vmap = study_map(ctx, map_, level_ref, prof, needs_map)
-            if rdb is None:
-                ref = track_eval_stage(ctx, level_ref, vmap, cfg)
-                return level_ref, vmap, ref, load_study(ref.path), None
             config = {"level": level_ref.key, "map": vmap.key, "study": cfg}
-            with recorded_run(rdb, "track-eval", command_line(), config, ctx,
-                              f"track-eval-{level_ref.name}") as run_id:
+            record = nullcontext() if rdb is None else recorded_run(
+                rdb, "track-eval", command_line(), config, ctx, f"track-eval-{level_ref.name}")
+            with record as run_id:
                 ref = track_eval_stage(ctx, level_ref, vmap, cfg)
                 res = load_study(ref.path)
-                stored = _store(rdb, run_id, res, level_ref.key, vmap.key)
+                stored = None if rdb is None else _store(rdb, run_id, res, ref.key, vmap.key)
             return level_ref, vmap, ref, res, stored
 
         def body(ui):
-            if no_store:
-                return study(ui, None)
-            with open_db(db) as rdb:
+            with (nullcontext() if no_store else open_db(db)) as rdb:
                 return study(ui, rdb)
 
         level_ref, vmap, ref, res, stored = run_with_ui(body, json_mode=json_out)
@@ -156,17 +154,11 @@ def _check_estimators(names: tuple[str, ...], options: dict[str, dict]) -> None:
     check_estimator_names(options, "--option")
 
 
-def _store(rdb, run_id: int, res: dict, level_key: str, map_key: str) -> dict:
-    """Store one row per (estimator, trajectory, seed) in the results database.
-
-    The study key hashes the level's content key, the map's key (fit-map artifact, file sha256,
-    ``true`` or ``none``) and the study config, so a rerun of the same study adds no duplicate
-    rows.
-    """
-    from navbench.config import config_hash
+def _store(rdb, run_id: int, res: dict, study_key: str, map_key: str) -> dict:
+    """Store one row per (estimator, trajectory, seed) in the results database, under the
+    study's key (the track-eval artifact's: it hashes the study config, the level's content key
+    and the map's key), so a rerun of the same study adds no duplicate rows."""
     from navbench.track.study import tracking_rows
 
-    study_key = config_hash({"stage": "track-eval", "level": level_key, "map": map_key,
-                             "config": res.get("config", {})})
     n = rdb.add_tracking_rows(run_id, tracking_rows(res, study_key, map_key))
     return {"run_id": run_id, "study_key": study_key, "rows": n, "db": rdb.display_url}

@@ -116,14 +116,13 @@ def map_file_stage(ctx: StageContext, level: Ref, spec: str, what: str = "--map"
     kind; its errors name the file) and checked to cover the level's floor plan, keyed by its
     :meth:`~navbench.worldmodel.base.WorldModel.content_hash` (the same map saved again keeps
     its key). Nothing is copied into the cache; the episodes' cell keys hold the map's key."""
-    from navbench.levelio import load_level
     from navbench.worldmodel.base import load_world_model
 
     path = Path(spec.replace(LEVEL_PLACEHOLDER, level.name))
     if not path.is_file():
         raise ConfigError(f"{what}: no such map file {str(path)!r} (or use fit or true)")
     model = load_world_model(path)
-    lv = load_level(level.path, name=level.name or None)
+    lv = load_level_ref(level)
     _, xs, ys = model.occupancy_slice("band")
     (x0, x1), (y0, y1) = _cell_extent(xs), _cell_extent(ys)
     tol = 1e-6
