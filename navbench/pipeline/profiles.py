@@ -349,7 +349,7 @@ class Profile:
     name: str
     description: str = ""
     levels: tuple[str, ...] = ("house-1",)
-    level_seed: int = 1              # levelgen seed when levels/NAME.json is not committed
+    level_seed: int | None = None    # levelgen seed of the profile's levels without levels/NAME.json (None: such a level is an error)
     camera: str = "half"             # camera of views, simulator and estimators
     views: int = 1000                # training views per level
     views_seed: int = 0              # pose sampling seed of the training views
@@ -390,7 +390,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "name": ("name", lambda v: _check_names([v], "profile", None)),
     "description": ("description", _check_str),
     "levels": ("levels", lambda v: _check_names(v, "level", None)),
-    "level_seed": ("level_seed", _SEED.check),
+    "level_seed": ("level_seed", lambda v: None if v is None else _SEED.check(v)),
     "camera": ("[views] camera", lambda v: _check_str(v, CAMERA_NAMES)),
     "views": ("[views] count", _int(1, MAX_VIEWS).check),
     "views_seed": ("[views] seed", _SEED.check),

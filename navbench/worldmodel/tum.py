@@ -289,17 +289,51 @@ def _positive_number(value, where: str) -> float:
     return v
 
 
+#: How far (deg) a ground-truth camera may be tilted from planar before an import refuses it
+#: (:func:`planar_height_tilt`): navbench's renderer and fit take planar poses ``(x, y, theta)``
+#: at one camera height, and a tilt of 0.5 deg moves a point 5 m away by 4.4 cm, under the
+#: paper grid's 5.7 cm cell. A navbench export is planar to ~1e-7 deg.
+MAX_TILT_DEG = 0.5
+#: How far (m) a ground-truth camera's ``z`` may be from the camera height (the given one, else
+#: the median) before an import refuses it: a third of the paper grid's cell.
+MAX_HEIGHT_DEV = 0.02
+
+
+def check_planar(path: Path, rows: list, camera_height: float, max_tilt_deg: float = MAX_TILT_DEG,
+                 max_height_dev: float = MAX_HEIGHT_DEV) -> None:
+    """Refuse 6-DoF poses: :class:`ArtifactError` naming ``path`` and the first line (of
+    ``rows``: ``(timestamp, T_wc, line)``) whose camera is tilted more than ``max_tilt_deg``
+    from planar or whose height is more than ``max_height_dev`` m from ``camera_height``.
+    navbench never flattens such a pose silently to ``(x, y, theta)``."""
+    for _, T, k in sorted(rows, key=lambda r: r[2]):
+        _, h, tilt = planar_height_tilt(T)
+        if tilt > max_tilt_deg:
+            raise ArtifactError(
+                f"{path}:{k}: camera tilted {tilt:.3g} deg from planar (tolerance {max_tilt_deg:g} "
+                f"deg, --max-tilt): navbench fits and renders planar poses (x, y, theta) at one "
+                f"camera height, and does not flatten 6-DoF poses")
+        if abs(h - camera_height) > max_height_dev:
+            raise ArtifactError(
+                f"{path}:{k}: camera z {h:.4g} m is {abs(h - camera_height):.3g} m from the camera "
+                f"height {camera_height:.4g} m (tolerance {max_height_dev:g} m, --max-height-dev): "
+                f"navbench fits and renders planar poses at one camera height, and does not "
+                f"flatten 6-DoF poses")
+
+
 def import_views(directory, intrinsics: Intrinsics | None = None, camera_height: float | None = None,
                  depth_scale: float | None = None, max_dt: float = 0.02, level: str | None = None,
-                 box_margin: float = 0.1, intrinsics_source: str = "given") -> Views:
+                 box_margin: float = 0.1, intrinsics_source: str = "given",
+                 max_tilt_deg: float = MAX_TILT_DEG, max_height_dev: float = MAX_HEIGHT_DEV) -> Views:
     """Read a TUM RGB-D directory into :class:`Views`.
 
     ``rgb.txt``, ``depth.txt`` and ``groundtruth.txt`` are associated by nearest timestamp
     (within ``max_dt`` s). Intrinsics: the argument (``intrinsics_source`` names where it came
     from in errors), else ``intrinsics.json``; camera height: the argument, else
     ``intrinsics.json``, else the median camera ``z``. The planar pose is
-    :func:`planar_height_tilt` of each ground-truth pose; ``meta['max_tilt_deg']`` reports how
-    far the cameras are from planar. ``box``: ``intrinsics.json``'s, else the bounds of the
+    :func:`planar_height_tilt` of each ground-truth pose; a pose tilted more than
+    ``max_tilt_deg`` or off the camera height by more than ``max_height_dev`` m is refused
+    (:func:`check_planar`: never flattened), ``meta['max_tilt_deg']`` reports how far the
+    accepted cameras are from planar. ``box``: ``intrinsics.json``'s, else the bounds of the
     camera centres and the back-projected depth points (every 8th pixel) plus ``box_margin``.
 
     Everything is checked before it is used, each error one :class:`ArtifactError` naming the
@@ -367,14 +401,24 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
     a_d, a_g = _associate(rgbs, depths, max_dt), _associate(rgbs, gts, max_dt)
     keep = [i for i in range(len(rgbs)) if i in a_d and i in a_g]
     if not keep:
-        raise ArtifactError(f"{d}: no rgb image has a depth map and a pose within {max_dt} s")
+        _no_association(rgbs, depths, gts, a_d, rgb_txt, depth_txt, gt_txt, max_dt)
+    # the poses first: a 6-DoF sequence is refused before any image is read
+    Ts = np.array([gts[a_g[i]][1] for i in keep])
+    planar = [planar_height_tilt(T) for T in Ts]
+    poses = np.array([p for p, _, _ in planar])
+    if camera_height is None:
+        camera_height = float(np.median([h for _, h, _ in planar]))
+        if not camera_height > 0:
+            raise ArtifactError(f"{gt_txt}: the median camera z is {camera_height:g} m, not above "
+                                f"the floor; give the camera height (intrinsics.json "
+                                f"camera_height or --camera-height)")
+    check_planar(gt_txt, [gts[a_g[i]] for i in keep], camera_height, max_tilt_deg, max_height_dev)
     H, W = intrinsics.shape
     N = len(keep)
     check_views_memory(N, intrinsics, f"import-views {d}")
     rgb = np.empty((N, H, W, 3), np.uint8)
     depth = np.empty((N, H, W), np.float32)
     valid = np.empty((N, H, W), bool)
-    Ts = np.empty((N, 4, 4))
     for n, i in enumerate(keep):
         im, rpath, rwhere = _open_listed(d, rgbs[i], rgb_txt)
         if im.size != (W, H):
@@ -402,15 +446,6 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
         dep = _pixels(dm, dpath, dwhere)
         valid[n] = dep > 0
         depth[n] = np.where(valid[n], dep.astype(np.float64) / scale, np.inf)
-        Ts[n] = gts[a_g[i]][1]
-    planar = [planar_height_tilt(T) for T in Ts]
-    poses = np.array([p for p, _, _ in planar])
-    if camera_height is None:
-        camera_height = float(np.median([h for _, h, _ in planar]))
-        if not camera_height > 0:
-            raise ArtifactError(f"{gt_txt}: the median camera z is {camera_height:g} m, not above "
-                                f"the floor; give the camera height (intrinsics.json "
-                                f"camera_height or --camera-height)")
     if box is None:
         from navbench.geometry import pixel_rays, transform_points
 
@@ -426,6 +461,18 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
             "timestamps": [rgbs[i][0] for i in keep]}
     return Views(poses, intrinsics, float(camera_height), rgb, depth, valid,
                  level or info.get("level") or d.name, seed, box, meta)
+
+
+def _no_association(rgbs, depths, gts, a_d, rgb_txt, depth_txt, gt_txt, max_dt) -> None:
+    """Raise the error of a sequence where no rgb image has both a depth map and a pose within
+    ``max_dt``: it names the first rgb line, the list that has nothing near it and the nearest
+    timestamp there."""
+    t, _, k = rgbs[0]
+    other, rows = (depth_txt, depths) if 0 not in a_d else (gt_txt, gts)
+    near = min(rows, key=lambda r: abs(r[0] - t))
+    raise ArtifactError(f"{rgb_txt}:{k}: no rgb image has a depth map and a pose within --max-dt "
+                        f"{max_dt:g} s; the first, at {t:.6f} s, has none in {other.name} (nearest "
+                        f"{near[0]:.6f} s at {other.name}:{near[2]})")
 
 
 def _typestr(im) -> str:

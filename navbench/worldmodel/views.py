@@ -367,3 +367,40 @@ def _make(arrays, intr, cam_h, level, seed, box, meta, where) -> Views:
     v.intrinsics, v.camera_height, v.level, v.seed, v.box, v.meta = intr, cam_h, level, seed, box, meta
     validate_views(v, where)
     return v
+
+
+# ------------------------------------------------------------------------------ identity and split
+
+def views_content_hash(views: Views) -> str:
+    """sha256 (hex) of what a fit sees: the intrinsics, camera height and box (as sorted JSON),
+    then each array's dtype, shape and bytes (poses as float64, rgb, depth, valid). The level
+    label, seed and ``meta`` (source path, timestamps) are left out, so the same images and
+    poses read from an ``.npz``, a views directory or a TUM import of them hash alike."""
+    import hashlib
+
+    i = views.intrinsics
+    head = {"intrinsics": [i.width, i.height, i.fx, i.fy, i.cx, i.cy],
+            "camera_height": float(views.camera_height),
+            "box": [[float(c) for c in views.box[0]], [float(c) for c in views.box[1]]]}
+    h = hashlib.sha256(json.dumps(head, sort_keys=True).encode())
+    arrays = (("poses", np.asarray(views.poses, np.float64)), ("rgb", views.rgb),
+              ("depth", views.depth), ("valid", views.valid))
+    for name, arr in arrays:
+        h.update(f"{name} {np.dtype(arr.dtype).str} {tuple(arr.shape)}".encode())
+        for n0 in range(0, len(arr), 64):  # chunks: memory-mapped arrays stay on disk
+            h.update(np.ascontiguousarray(arr[n0:n0 + 64]).tobytes())
+    return h.hexdigest()
+
+
+def heldout_split(count: int, every: int) -> tuple[np.ndarray, np.ndarray]:
+    """The deterministic train / held-out split of ``count`` views: every ``every``-th view
+    (indices ``every - 1, 2 every - 1, ...``) is held out, the rest train. Returns
+    ``(train indices, held-out indices)``; :class:`ConfigError` unless both are non-empty."""
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 2:
+        raise ConfigError(f"held-out split: every must be a whole number >= 2, got {every!r}")
+    idx = np.arange(count)
+    held = (idx % every) == every - 1
+    if not held.any() or held.all():
+        raise ConfigError(f"held-out split: {count} views hold out none with every {every} "
+                          f"(give at least {every} views, a smaller --heldout-every or --heldout)")
+    return idx[~held], idx[held]

@@ -21,7 +21,7 @@ def _collect(level: str, count: int | None, camera: str | None, seed: int | None
     cfg.check_memory("--count" if count is not None else f"profile {prof.name}: [views] count")
     with PipelineUI() as ui:
         ctx = stage_context(ui, force={"collect-views"} if force else set())
-        lv = make_level_stage(ctx, LevelConfig(level, prof.level_seed))
+        lv = make_level_stage(ctx, LevelConfig.for_profile(level, prof))
         ref = collect_views_stage(ctx, lv, cfg)
     state = "cached" if ref.cached else "collected"
     console.print(f"{level}: {cfg.count} {cfg.camera} views (seed {cfg.seed}) {state}, "

@@ -1,4 +1,5 @@
-"""``navbench export-views``: a navbench views artifact -> the TUM RGB-D layout."""
+"""``navbench export-views``: a navbench views artifact (a file or a cache key) -> the TUM
+RGB-D layout."""
 
 from __future__ import annotations
 
@@ -12,14 +13,20 @@ from navbench.cli._common import console
 def register(app: typer.Typer) -> None:
     @app.command("export-views")
     def export_views_cmd(
-        views_path: Path = typer.Argument(..., metavar="FILE", help="Views artifact (directory or .npz)."),
+        views_spec: str = typer.Argument(..., metavar="VIEWS", help="Views artifact (directory or "
+                                         ".npz) or the key (>= 6 hex digits) of a cached "
+                                         "collect-views or import-views artifact."),
         directory: Path = typer.Argument(..., metavar="DIR", help="Output directory."),
     ):
         """Write views as TUM RGB-D: rgb/, depth/ (16-bit, m x 5000), rgb.txt, depth.txt,
         groundtruth.txt (camera-to-world poses) and intrinsics.json."""
+        from navbench.errors import ConfigError
+        from navbench.pipeline.stages.imported import is_tum_dir, resolve_views
         from navbench.worldmodel.tum import export_views
-        from navbench.worldmodel.views import load_views
 
-        views = load_views(views_path)
+        if is_tum_dir(Path(views_spec)):
+            raise ConfigError(f"VIEWS {views_spec}: a directory without views.json (a TUM "
+                              f"directory is already exported; import-views reads it)")
+        views, _ = resolve_views(views_spec, what="VIEWS")
         export_views(views, directory)
         console.print(f"exported {len(views)} views of {views.level} -> {directory}", soft_wrap=True)

@@ -15,10 +15,18 @@ from navbench.pipeline.stages.context import Ref, StageContext, verified
 @dataclass(frozen=True)
 class LevelConfig:
     """make-level: ``name`` of the level; ``seed`` of the level generator, used only when no
-    ``levels/NAME.json`` is committed (benchmark levels use their own table seed)."""
+    ``levels/NAME.json`` is committed (benchmark levels use their own table seed). With no
+    file and no seed (``None``), a name that is not a benchmark level is an error: a typo is
+    never silently generated."""
 
     name: str
-    seed: int = 1
+    seed: int | None = None
+
+    @classmethod
+    def for_profile(cls, name: str, profile) -> "LevelConfig":
+        """The config of level ``name`` typed with ``profile``: the profile's ``level_seed``
+        generates the profile's own ``levels`` only; any other name needs its file."""
+        return cls(name, profile.level_seed if name in profile.levels else None)
 
 
 def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
@@ -44,6 +52,15 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         verified(ctx, "level", {"level": key}, check)
         ref = Ref("make-level", key, committed, True, cfg.name, {"source": "committed"})
     else:
+        from navbench import levelgen as _lg  # light: numpy only
+
+        if cfg.seed is None and cfg.name not in _lg.BENCHMARK_LEVELS:
+            raise LevelError(f"level {cfg.name!r}: no {committed} and no seed to generate it; make "
+                             f"it with `navbench make-level {cfg.name} --seed S` (or list it in a "
+                             f"profile's levels with a level_seed)")
+        if cfg.seed is None:  # a benchmark level ignores the seed: keep the key of seed 1
+            cfg = LevelConfig(cfg.name, 1)
+
         def compute(d: Path) -> None:
             from navbench import levelgen
             from navbench.levelio import save_level
@@ -53,8 +70,6 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
             else:
                 level = levelgen.generate_level(cfg.name, cfg.seed)
             save_level(level, d / "level.json")
-
-        from navbench import levelgen as _lg  # light: numpy only
 
         gen_cfg = {"level": to_jsonable(cfg), "generator": getattr(_lg, "GENERATOR_VERSION", 0)}
         origin = ("the benchmark's seed" if cfg.name in _lg.BENCHMARK_LEVELS

@@ -141,3 +141,49 @@ def _cell_extent(centres) -> tuple[float, float]:
     """The span ``[lo, hi]`` covered by equally spaced cell ``centres``."""
     half = (float(centres[1]) - float(centres[0])) / 2 if len(centres) > 1 else 0.0
     return float(centres[0]) - half, float(centres[-1]) + half
+
+
+#: Cache stages whose artifacts hold a map (``MAP_FILE``).
+MAP_STAGES = ("fit-map", "true-map")
+
+
+def resolve_map(spec: str, ctx: StageContext | None = None, what: str = "--map"):
+    """The world model ``spec`` names and its key: ``(model, key)``.
+
+    ``spec`` is a map file (any registered world-model kind,
+    :func:`navbench.worldmodel.base.load_world_model`) or the key (>= 6 hex digits) of a cached
+    fit-map or true-map artifact in ``ctx``'s store (default ``results/cache``). The key is the
+    model's :meth:`~navbench.worldmodel.base.WorldModel.content_hash` either way (as
+    :func:`map_file_stage` keys a brought map). Failures are one line naming ``what``."""
+    import re
+
+    from navbench.errors import ArtifactError
+    from navbench.worldmodel.base import load_world_model
+
+    path = Path(spec)
+    if not path.exists():
+        if not re.fullmatch(r"[0-9a-f]{6,64}", spec):
+            raise ConfigError(f"{what} {spec}: no such map file, and not a map key (>= 6 hex "
+                              f"digits of a fit-map or true-map artifact, see `navbench cache ls`)")
+        if ctx is None:
+            from navbench.pipeline.cache import ArtifactStore
+
+            ctx = StageContext(ArtifactStore("results/cache"))
+        hits = []
+        for stage in MAP_STAGES:
+            try:
+                hits.append(ctx.store.find(spec, stage))
+            except ArtifactError as e:
+                if "ambiguous" in str(e):
+                    raise ArtifactError(f"{what} {spec}: {e}") from None
+        if len(hits) != 1:
+            raise ArtifactError(f"{what} {spec}: " + ("no such map file, and no fit-map or true-map "
+                                f"artifact with that key in {ctx.store.root}" if not hits else
+                                f"key is ambiguous ({len(hits)} artifacts); give more digits"))
+        stage, key = hits[0]
+        path = ctx.store.load(stage, key) / MAP_FILE
+        ctx.used.append((stage, key))
+    elif not path.is_file():
+        raise ConfigError(f"{what} {spec}: not a map file (a directory)")
+    model = load_world_model(path)
+    return model, model.content_hash()

@@ -43,7 +43,7 @@ class StudyMap:
     load: Callable[[], Any] | None = None
 
 
-def study_level(ctx: StageContext, level: str, level_seed: int = 1) -> Ref:
+def study_level(ctx: StageContext, level: str, level_seed: int | None = None) -> Ref:
     """The make-level reference of ``level``: a level name (``levels/NAME.json``, or a benchmark
     level generated and cached) or a path to a level file named after its level."""
     p = Path(level)
