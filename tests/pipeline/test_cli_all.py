@@ -160,4 +160,4 @@ def test_collect_views_and_fit_map_commands(project, monkeypatch):
     from navbench.cli.main import app
 
     res = CliRunner().invoke(app, ["fit-map", "tiny", "--views", "0000000000", "--profile", "tiny.toml"])
-    assert res.exit_code != 0 and "no collect-views artifact" in str(res.exception)
+    assert res.exit_code != 0 and "collect-views artifact with that key" in str(res.exception)
