@@ -10,7 +10,7 @@ import typer
 from navbench.cli import _tum
 from navbench.cli._common import console, print_json
 from navbench.cli._help import DB_HELP, default, profile_default, profile_help
-from navbench.pipeline.profiles import MAX_FIT_STEPS  # light
+from navbench.pipeline.profiles import MAX_FIT_STEPS, MAX_VIEWS  # light
 
 
 def register(app: typer.Typer) -> None:
@@ -27,7 +27,7 @@ def register(app: typer.Typer) -> None:
         heldout: str = typer.Option(None, "--heldout", help="Held-out views for the map's quality "
                                     "(path, TUM directory or key, as --views) "
                                     f"{default('every --heldout-every-th view of --views')}."),
-        heldout_every: int = typer.Option(10, "--heldout-every", min=2, help="Without --heldout: "
+        heldout_every: int = typer.Option(10, "--heldout-every", min=2, max=MAX_VIEWS, help="Without --heldout: "
                                           "views N-1, 2N-1, ... of --views are held out, the rest fitted."),
         seed: int = typer.Option(None, "--seed", min=0, help=f"Batch sampling seed {profile_default('fit_seed')}."),
         camera: str = typer.Option(None, "--camera", help=f"half or paper, for LEVEL's collected views {profile_default('camera')}."),
