@@ -23,7 +23,11 @@ module                 holds
 ``context``            :class:`StageContext`, :class:`Ref`, :func:`verified`
 ``level``              make-level (:class:`LevelConfig`)
 ``views``              collect-views (:class:`ViewsConfig`)
-``maps``               fit-map (:class:`FitMapConfig`), true-map (:class:`TrueMapConfig`)
+``maps``               fit-map (:class:`FitMapConfig`), true-map (:class:`TrueMapConfig`),
+                       :func:`resolve_map` (a map file or a map key)
+``imported``           views from outside: :func:`resolve_views` (a views file, a TUM RGB-D
+                       directory or a views key), import-views (:func:`store_views_stage`),
+                       fit-map of given views without a level (:class:`FitViewsConfig`)
 ``tasks``              sample-tasks (:class:`TasksConfig`)
 ``inputs``             a profile's per-level inputs (:class:`LevelInputs`)
 ``grid``               the navigation grid, seeds and chunks (:class:`NavigationConfig`)
@@ -40,10 +44,12 @@ from navbench.pipeline.stages.context import Ref, StageContext, verified
 from navbench.pipeline.stages.grid import (ChunkSpec, Cell, EpisodeJob, NavigationConfig, build_episode_config,
                                            chunk_jobs, episode_key, episode_seeds, make_cells, plan_jobs,
                                            resolved_episode_config)
+from navbench.pipeline.stages.imported import (FitViewsConfig, ImportOptions, fit_views_stage, resolve_views,
+                                               store_views_stage)
 from navbench.pipeline.stages.inputs import LevelInputs, build_level_inputs, fit_map_for_profile
 from navbench.pipeline.stages.level import LevelConfig, load_level_ref, make_level_stage
 from navbench.pipeline.stages.maps import (MAP_METRIC_KEYS, FitMapConfig, TrueMapConfig, fit_map_stage,
-                                           true_map_stage)
+                                           resolve_map, true_map_stage)
 from navbench.pipeline.stages.navigation import NavigationSummary, run_navigation_stage
 from navbench.pipeline.stages.report import report_stage
 from navbench.pipeline.stages.score import episodes_state_key, score_stage
@@ -59,4 +65,5 @@ __all__ = [
     "fit_map_stage", "load_level_ref", "make_cells", "make_level_stage", "plan_jobs", "report_stage",
     "resolved_episode_config", "run_navigation_stage", "sample_tasks_stage", "score_stage",
     "study_level", "study_map", "track_eval_stage", "true_map_stage", "verified",
+    "FitViewsConfig", "ImportOptions", "fit_views_stage", "resolve_map", "resolve_views", "store_views_stage",
 ]
