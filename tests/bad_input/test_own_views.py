@@ -166,3 +166,15 @@ def test_tilted_pose_through_the_cli_names_line_and_tolerance(project, tum):
 @pytest.fixture
 def tum(project):
     return make_tum(project.parent / "tum")
+
+
+def test_fit_map_views_collect_views_key_without_level(project):
+    """A collect-views key without LEVEL: the level-free fit of those views (the level's box,
+    which the views carry); with LEVEL the profile's route (its held-out collection) as before."""
+    res = nb("collect-views", "tiny", "--count", "10", "--profile", "tiny.toml")
+    assert res.code == 0, res.output
+    key = res.out.split("key ")[1].split()[0]
+    a = fit("--views", key, "--heldout-every", "5")
+    assert a["train_views"] == 8 and a["heldout_views"] == 2 and a["slice_precision"] is None
+    b = fit("tiny", "--views", key)
+    assert "train_views" not in b and b["heldout_views"] == 4 and b["slice_precision"] is not None
