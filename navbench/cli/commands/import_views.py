@@ -44,11 +44,10 @@ def register(app: typer.Typer) -> None:
             save_views(views, out)
         ref = None
         if store:
-            from navbench.pipeline.stages.context import StageContext
+            from navbench.pipeline.run import stage_context
             from navbench.pipeline.stages.imported import store_views_stage
-            from navbench.pipeline.cache import ArtifactStore
 
-            ref = store_views_stage(StageContext(ArtifactStore("results/cache")), views, content)
+            ref = store_views_stage(stage_context(), views, content)
         i = views.intrinsics
         if json_out:
             print_json({"count": len(views), "content_key": content, "out": str(out) if out else None,
