@@ -7,6 +7,7 @@ Usage (from the repository root, with the venv's python and PYTHONPATH=.):
                                                 [--profile quick] [--steps N] [--device cpu]
     python scripts/own_views_figures.py timing [--level house-1] [--frames 2000] [--camera half]
                                                 [--profile quick] [--steps N] [--repeats 3] [--device cpu]
+    python scripts/own_views_figures.py ratio  [--frames 2000] [--camera half] [--steps 100] [--repeats 3]
 
 Both work in a fresh scratch project (``--work DIR``, default a temporary directory, with
 ``levels/`` linked to this repository's) and print one JSON object.
@@ -110,9 +111,32 @@ def timing(work: Path, a) -> dict:
             "loadavg_before": load0, "loadavg_after": os.getloadavg()}
 
 
+def ratio(work: Path, a) -> dict:
+    """ms per fit step on the collected views vs the same views exported and imported
+    (interleaved repeats): whether imported views cost the fit anything."""
+    from navbench.geometry import camera_by_name
+    from navbench.levelio import resolve_level
+    from navbench.worldmodel.fit import FitConfig, fit_map
+    from navbench.worldmodel.tum import export_views, import_views
+    from navbench.worldmodel.views import collect_views, load_views, save_views
+
+    v = collect_views(resolve_level(str(ROOT / "levels" / f"{a.level}.json")), a.frames,
+                      camera_by_name(a.camera), seed=0)
+    imp = load_views(save_views(import_views(export_views(v, work / "tum")), work / "imported"))
+    cfg = FitConfig(steps=a.steps or 100, device=a.device)
+    ms = {"collected": [], "imported": []}
+    for _ in range(a.repeats):
+        for name, views in (("collected", v), ("imported", imp)):
+            ms[name].append(fit_map(views, cfg)[1]["ms_per_step"])
+    med = {k: statistics.median(x) for k, x in ms.items()}
+    return {"figure": "ratio", "frames": a.frames, "camera": a.camera, "steps": cfg.steps,
+            "ms_per_step": ms, "median": med, "imported_over_collected": med["imported"] / med["collected"],
+            "loadavg": os.getloadavg()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("figure", choices=("same", "timing"))
+    ap.add_argument("figure", choices=("same", "timing", "ratio"))
     ap.add_argument("--level", default="house-1")
     ap.add_argument("--frames", type=int, default=None)
     ap.add_argument("--camera", default=None)
@@ -129,7 +153,7 @@ def main() -> None:
         work.mkdir(parents=True, exist_ok=True)
         if not (work / "levels").exists():
             (work / "levels").symlink_to(ROOT / "levels")
-        print(json.dumps((same if a.figure == "same" else timing)(work, a), indent=1))
+        print(json.dumps({"same": same, "timing": timing, "ratio": ratio}[a.figure](work, a), indent=1))
 
 
 if __name__ == "__main__":
