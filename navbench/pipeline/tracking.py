@@ -37,6 +37,11 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
 
     cfg = dataclasses.replace(config or TrackSequenceConfig(), **overrides)
     check_estimator_names((cfg.estimator,), "--estimator")
+    if cfg.estimator == "gt":
+        from navbench.errors import ConfigError
+
+        raise ConfigError("--estimator gt: reads the true pose while tracking; choose one of "
+                          "ours, no-map, dynamics, emission")
     parse_odometry(cfg.odometry)
     model, map_key = None, None
     if map is not None and uses_map(cfg.estimator):
