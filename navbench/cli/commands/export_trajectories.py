@@ -29,10 +29,11 @@ def register(app: typer.Typer) -> None:
     ):
         """Write true and estimated trajectories as TUM pose files, one pair per trajectory.
 
-        Files: DIR/episodes/<level>/<estimator>_<noise>_task<id>_seed<s>_<key8>.{gt,est}.txt and
-        DIR/track-eval/<level>/<estimator>_<noise>_traj<i>_seed<s>_<key8>.{gt,est}.txt, with
-        identical timestamps, plus DIR/index.csv. Check one with evo:
-        evo_ape tum X.gt.txt X.est.txt.
+        Each stored episode (run-navigation) or track-eval trajectory the options select
+        becomes two files with identical timestamps: X.gt.txt and X.est.txt in a folder
+        episodes/LEVEL or track-eval/LEVEL of DIR, where X names the estimator, noise, task
+        (or trajectory), seed and key. DIR/index.csv lists every pair. Check one with evo:
+        evo_ape tum X.gt.txt X.est.txt
         """
         from navbench.errors import ConfigError
         from navbench.pipeline.run import open_db

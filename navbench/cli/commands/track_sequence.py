@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console, print_json
-from navbench.cli._help import DB_HELP
+from navbench.cli._help import DB_HELP, default
 
 
 def register(app: typer.Typer) -> None:
@@ -24,9 +24,9 @@ def register(app: typer.Typer) -> None:
                                      "file of odometry poses (one per frame, matched by timestamp), "
                                      "or gt+none|low|mid|high|tracking: the ground truth's increments "
                                      "with that noise level, seeded by --seed."),
-        out: Path = typer.Option(None, "--out", metavar="EST.txt", help="Where the estimate goes "
-                                 "(strict TUM) [default: results/sequences/<DIR name>/<estimator>_"
-                                 "<odometry>_seed<S>.txt]."),
+        out: Path = typer.Option(None, "--out", metavar="EST.txt", help="Where the estimate goes (strict TUM) "
+                                 + default("results/sequences/NAME/EST_ODOM_seedS.txt, NAME the "
+                                           "sequence's folder") + "."),
         seed: int = typer.Option(0, "--seed", min=0, help="Odometry noise and pixel-sampling seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option KEY=VALUE "
                                          "(repeatable), e.g. -o optimizer=adam."),
