@@ -94,3 +94,24 @@ def test_odometry_file_drives_the_tracker(scene, tmp_path):
     r = track_sequence(seq, None, estimator="dynamics", odometry=str(tmp_path / "odo.txt"))
     assert r.ate_m < 1e-8
     assert camera_pose is not None
+
+
+def test_map_by_cache_key_equals_the_file(scene, tmp_path, monkeypatch):
+    """--map KEY (a fit-map / true-map artifact of the cache) tracks on that artifact's map.npz."""
+    import json
+    import shutil
+
+    from navbench.pipeline.cache import ArtifactStore
+
+    root, seq, views = scene
+    monkeypatch.chdir(tmp_path)
+    key = "cd" * 32
+    ArtifactStore("results/cache").write("true-map", key,
+                                         lambda d: shutil.copy(root / "map.npz", d / "map.npz"),
+                                         config={}, inputs={}, version=1)
+    by_key = nb("track-sequence", seq, "--map", key[:8], "--json", "--no-store", "--out", "a.txt")
+    by_file = nb("track-sequence", seq, "--map", root / "map.npz", "--json", "--no-store", "--out", "b.txt")
+    assert by_key.code == 0 and by_file.code == 0, by_key.output + by_file.output
+    a, b = json.loads(by_key.out), json.loads(by_file.out)
+    assert a["map_key"] == key and a["ate_m"] == b["ate_m"]
+    assert (tmp_path / "a.txt").read_text() == (tmp_path / "b.txt").read_text()
