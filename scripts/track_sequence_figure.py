@@ -81,8 +81,8 @@ def main() -> int:
 
     vmap = load_world_model(api_map)  # the map as fit-map stores it (colour as float16)
     api = track_sequence(seq, vmap, estimator="ours", odometry=args.odometry, seed=args.seed)
-    print(f"API: fit {fit_s:.1f} s (depth MAE {metrics.get('depth_mae_m', float('nan')):.4f} m on the "
-          f"training views), map {vmap.content_hash()[:12]}; ours ATE {api.ate_m:.6f} m, RPE "
+    print(f"API: import + fit {fit_s:.1f} s ({fit_cfg.steps} steps on {len(views)} views), map "
+          f"{vmap.content_hash()[:12]}; ours ATE {api.ate_m:.6f} m, RPE "
           f"{api.rpe_m:.5f} m / {api.rpe_deg:.3f} deg per frame, odometry alone {api.odometry_ate_m:.4f} m, "
           f"{api.ms_per_frame:.1f} ms per frame")
 
