@@ -92,3 +92,8 @@ def test_tilted_ground_truth_is_refused_not_flattened(project, tum):
 
 def test_not_a_directory(project):
     refused(project, "nodir", "--estimator", "dynamics", names=("nodir",))
+
+
+def test_unknown_estimator_option(project, tum):
+    refused(project, tum, "--estimator", "no-map", "-o", "sharpness=3", names=("sharpness",))
+    refused(project, tum, "--estimator", "no-map", "-o", "sharpness", names=("--option",))
