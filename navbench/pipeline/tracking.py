@@ -57,14 +57,20 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
         else:
             model, map_key = map, map.content_hash()
     seq = read_sequence(directory, cfg.max_tilt_deg, cfg.max_dt)
-    res = run_tracking(seq, model, map_key, cfg, str(directory))
-    if out is not None:
-        path = default_output(seq, cfg) if str(out) == "default" else Path(out)
-        res.out = write_trajectory(path, seq.timestamps, res.est_poses, seq.views.camera_height)
-    if db is not None:
-        conf = {"sequence": res.row["sequence_hash"], "map": map_key, "track": cfg}
-        with recorded_run(db, "track-sequence", command, conf) as run_id:
-            res.stored = db.add_sequence_rows(run_id, [res.row])
+
+    def work() -> SequenceResult:
+        res = run_tracking(seq, model, map_key, cfg, str(directory))
+        if out is not None:
+            path = default_output(seq, cfg) if str(out) == "default" else Path(out)
+            res.out = write_trajectory(path, seq.timestamps, res.est_poses, seq.views.camera_height)
+        return res
+
+    if db is None:
+        return work()
+    conf = {"sequence": str(directory), "map": map_key, "track": cfg}
+    with recorded_run(db, "track-sequence", command, conf) as run_id:  # done, failed or interrupted
+        res = work()
+        res.stored = db.add_sequence_rows(run_id, [res.row])
     return res
 
 
