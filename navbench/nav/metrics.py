@@ -98,3 +98,32 @@ def score_episode(record, agent_length: float = AGENT_LENGTH) -> EpisodeScore:
         end_reason=str(record.end_reason),
         collided=bool(record.collided),
     )
+
+
+def relative_pose_error(true_poses, est_poses, delta: int = 1) -> tuple[float, float]:
+    """Relative pose error (Sturm et al. 2012, "A Benchmark for the Evaluation of RGB-D SLAM
+    Systems", eq. 1-2) of planar trajectories ``(T, 3)`` over ``delta`` frames: with the SE(2)
+    errors ``E_i = (Q_i^-1 Q_{i+delta})^-1 (P_i^-1 P_{i+delta})`` (``Q`` true, ``P`` estimated),
+    ``(RMSE of |trans(E_i)| [m], RMSE of |angle(E_i)| [deg])`` over ``i = 0 .. T-1-delta``;
+    ``(nan, nan)`` for trajectories shorter than ``delta + 1`` poses. Per frame: ``delta = 1``."""
+    q = np.asarray(true_poses, dtype=np.float64).reshape(-1, 3)
+    p = np.asarray(est_poses, dtype=np.float64).reshape(-1, 3)
+    if len(q) != len(p):
+        raise ValueError(f"trajectories of different lengths: {len(q)} and {len(p)} poses")
+    if delta < 1 or len(q) <= delta:
+        return float("nan"), float("nan")
+
+    def rel(a):  # a_i^-1 a_{i+delta}: translation in the frame of a_i, and the angle
+        d = a[delta:, :2] - a[:-delta, :2]
+        c, s = np.cos(a[:-delta, 2]), np.sin(a[:-delta, 2])
+        return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], 1), a[delta:, 2] - a[:-delta, 2]
+
+    tq, aq = rel(q)
+    tp, ap = rel(p)
+    # E = Rq^T (tp - tq) in translation, ap - aq in angle (SE(2) rotations commute)
+    c, s = np.cos(aq), np.sin(aq)
+    d = tp - tq
+    et = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], 1)
+    ea = wrap_angle(ap - aq)
+    return (float(np.sqrt(np.mean(np.sum(et ** 2, axis=1)))),
+            float(np.degrees(np.sqrt(np.mean(ea ** 2)))))

@@ -14,7 +14,7 @@ import numpy as np
 
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, Frame
-from navbench.sim.dynamics import predict
+from navbench.track.odometry import predict_pose
 
 
 class _Basic:
@@ -57,13 +57,14 @@ class GroundTruthEstimator(_Basic):
 
 
 class DynamicsEstimator(_Basic):
-    """Path integration: ``pose <- predict(pose, control)`` (noise-free dynamics)."""
+    """Path integration: ``pose <- predict(pose, control)`` (noise-free dynamics), or the
+    odometry increment composed (:func:`navbench.track.odometry.predict_pose`)."""
 
     name = "dynamics"
 
     def update(self, control, frame: Frame | None = None, true_pose=None) -> np.ndarray:
         self._check()
         t0 = time.perf_counter()
-        self.pose = predict(self.pose, control)
+        self.pose = predict_pose(self.pose, control)
         self.last_timing = {"render": 0.0, "estimate": (time.perf_counter() - t0) * 1e3}
         return self.pose.copy()

@@ -232,13 +232,13 @@ class EmissionTracker:
         self.last_timing = {}
 
     def update(self, control, frame: Frame, true_pose=None) -> np.ndarray:
-        from navbench.sim.dynamics import predict
+        from navbench.track.odometry import predict_pose
 
         check_update(self, frame)
         t0 = time.perf_counter()
         H, W = self.intrinsics.shape
         table = pixel_table(H, W, 100, self.config.pixels, self.seed)
-        pred = np.asarray(predict(self.pose, control), dtype=np.float64)
+        pred = np.asarray(predict_pose(self.pose, control), dtype=np.float64)
         with _threads(self.config.threads):
             self.pose = align_emission(self.objective, frame, pred, table)
         self.last_timing = {"render": 0.0, "estimate": (time.perf_counter() - t0) * 1e3}

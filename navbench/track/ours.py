@@ -77,7 +77,7 @@ import numpy as np
 
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, camera_pose
-from navbench.sim.dynamics import predict
+from navbench.track.odometry import predict_pose
 from navbench.track.base import check_update
 from navbench.track.eq7 import (
     Reference,
@@ -292,7 +292,7 @@ class _PredictionToObservation:
         t0 = time.perf_counter()
         ref, ms_render = self._reference()
         t1 = time.perf_counter()
-        pred = np.asarray(predict(self.pose, control), dtype=np.float64)
+        pred = np.asarray(predict_pose(self.pose, control), dtype=np.float64)
         est = align(ref, frame, pred, self.config, self.seed, self.camera_height)
         t2 = time.perf_counter()
         self.pose = est

@@ -10,7 +10,7 @@ import numpy as np
 
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_HEIGHT
-from navbench.sim.dynamics import predict
+from navbench.track.odometry import predict_pose  # a control, or an odometry increment
 from navbench.track.registry import make_estimator
 
 
@@ -59,6 +59,6 @@ class OursEveryK:
             self.last_timing = dict(self._ours.last_timing)
         else:
             t0 = time.perf_counter()
-            self.pose = np.asarray(predict(self.pose, control), dtype=np.float64)
+            self.pose = np.asarray(predict_pose(self.pose, control), dtype=np.float64)
             self.last_timing = {"render": 0.0, "estimate": (time.perf_counter() - t0) * 1e3}
         return self.pose.copy()

@@ -23,6 +23,8 @@ Tables (SQLAlchemy 2 declarative models in :mod:`navbench.pipeline.db.schema`):
   medians of the per-step component timings and a pointer (cache key) to its trajectory.
 * ``tracking`` -- one tracked trajectory of the tracking study (Fig. 4), unique on
   (study_key, estimator, trajectory_id, seed).
+* ``sequence_tracking`` -- one RGB-D sequence tracked by ``track-sequence`` (ATE, RPE, ms per
+  frame), unique on its sequence key (sequence, map, odometry, estimator, options, seed).
 * ``bench`` -- one measured benchmark metric, unique on (run_id, metric, device).
 
 Duplicate rows are impossible: every ``add_*``/``record_*`` inserts with the dialect's

@@ -228,3 +228,46 @@ def _add_missing_columns(conn: Connection) -> None:
             continue
         col = Base.metadata.tables[table].c[name]
         conn.exec_driver_sql(f"ALTER TABLE {table} ADD COLUMN {name} {col.type.compile(conn.dialect)}")
+
+
+# -- issue 13: tracking a TUM sequence (navbench track-sequence) --------------------------------
+
+class SequenceTrackingRow(Base):
+    """One tracked RGB-D sequence: ``track-sequence``'s estimate against its ground truth.
+
+    ``sequence_key`` hashes the sequence (frames and poses), the map key, the odometry and the
+    estimator with its options and seed (:func:`navbench.pipeline.stages.sequence.sequence_key`);
+    a rerun of the same tracking adds nothing (the first measurement stays)."""
+
+    __tablename__ = "sequence_tracking"
+    __table_args__ = (UniqueConstraint("sequence_key", name="uq_sequence_tracking_key"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    sequence_key: Mapped[str] = mapped_column(String(128))
+    sequence: Mapped[str] = mapped_column(Text)  # the directory as given
+    sequence_hash: Mapped[str] = mapped_column(String(64))
+    map_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    estimator: Mapped[str] = mapped_column(String(64))
+    estimator_options: Mapped[dict] = mapped_column(JSON)
+    odometry: Mapped[str] = mapped_column(Text)  # "gt+mid" or the odometry file as given
+    odometry_hash: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    seed: Mapped[int] = mapped_column(Integer)
+    frames: Mapped[int] = mapped_column(Integer)
+    ate_m: Mapped[float | None] = mapped_column(Float, nullable=True)  # location RMSE, no alignment
+    rot_rmse_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    rpe_m: Mapped[float | None] = mapped_column(Float, nullable=True)  # per frame (delta 1)
+    rpe_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    odometry_ate_m: Mapped[float | None] = mapped_column(Float, nullable=True)  # dead reckoning
+    ms_per_frame: Mapped[float | None] = mapped_column(Float, nullable=True)  # median, ms
+    render_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # per-frame medians
+    estimate_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+_SEQUENCE_FIELDS = (
+    "sequence_key", "sequence", "sequence_hash", "map_key", "estimator", "estimator_options",
+    "odometry", "odometry_hash", "seed", "frames", "ate_m", "rot_rmse_deg", "rpe_m", "rpe_deg",
+    "odometry_ate_m", "ms_per_frame", "render_ms", "estimate_ms",
+)
+_SEQUENCE_REQUIRED = ("sequence_key", "sequence", "sequence_hash", "estimator", "odometry", "seed",
+                      "frames")

@@ -51,6 +51,11 @@ from navbench.pipeline.db.schema import (
     _add_missing_columns,
     resolve_db_url,
 )
+from navbench.pipeline.db.schema import (  # issue 13's table
+    _SEQUENCE_FIELDS,
+    _SEQUENCE_REQUIRED,
+    SequenceTrackingRow,
+)
 from navbench.pipeline.executor import pid_alive, process_start_token
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -444,6 +449,28 @@ class ResultsDB:
             stmt = stmt.where(TrackingRow.run_id.in_([int(r) for r in run_ids]))
         return self._frame(_apply_filters(stmt, TrackingRow, filters))
 
+    # -- tracked sequences (track-sequence, issue 13) --------------------------------------------
+
+    def add_sequence_rows(self, run_id: int, rows: list[dict]) -> int:
+        """Insert ``track-sequence`` rows (the columns of
+        :class:`~navbench.pipeline.db.schema.SequenceTrackingRow`), ignoring a ``sequence_key``
+        already stored; returns how many were new."""
+        clean = self._normalise(rows, _SEQUENCE_FIELDS, _SEQUENCE_REQUIRED, "sequence_tracking",
+                                json_fields=("estimator_options",))
+        now = _utcnow()
+        for r in clean:
+            r["run_id"] = int(run_id)
+            r["recorded"] = now
+        with self._begin() as conn:
+            return self._insert_ignore(conn, SequenceTrackingRow, clean, ("sequence_key",))
+
+    def sequence_frame(self, run_ids: list[int] | None = None, **filters) -> "pandas.DataFrame":
+        """The ``sequence_tracking`` rows, oldest first (``filters``: column == value or a list)."""
+        stmt = select(SequenceTrackingRow.__table__).order_by(SequenceTrackingRow.id)
+        if run_ids is not None:
+            stmt = stmt.where(SequenceTrackingRow.run_id.in_([int(r) for r in run_ids]))
+        return self._frame(_apply_filters(stmt, SequenceTrackingRow, filters))
+
     # -- bench ----------------------------------------------------------------------------------
 
     def add_bench_rows(self, run_id: int, rows: list[dict]) -> int:
@@ -502,3 +529,4 @@ def _sqlite_pragmas(dbapi_conn, _record) -> None:
     cur.execute("PRAGMA foreign_keys=ON")
     cur.execute("PRAGMA busy_timeout=60000")
     cur.close()
+

@@ -1,0 +1,70 @@
+"""``navbench export-trajectories``: stored episodes' and track-eval trajectories as TUM files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from navbench.cli._common import console, parse_list, print_json
+from navbench.cli._help import DB_HELP
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("export-trajectories")
+    def export_trajectories_cmd(
+        out: Path = typer.Argument(..., metavar="DIR", help="Output directory (new or empty)."),
+        run: str = typer.Option(None, "--run", metavar="ID|latest", help="Only this run's rows."),
+        level: str = typer.Option(None, "--level", help="Comma-separated level names."),
+        estimator: str = typer.Option(None, "--estimator", help="Comma-separated estimator names."),
+        noise: str = typer.Option(None, "--noise", help="Comma-separated noise levels (track-eval "
+                                  "studies: tracking)."),
+        task: str = typer.Option(None, "--task", help="Comma-separated task ids (track-eval: "
+                                 "trajectory indices)."),
+        source: str = typer.Option("all", "--source", help="all, episodes (run-navigation) or "
+                                   "track-eval (tracking studies)."),
+        dt: float = typer.Option(0.1, "--dt", help="Seconds between poses (timestamp = step x dt)."),
+        json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
+        db: str = typer.Option(None, "--db", help=DB_HELP),
+    ):
+        """Write true and estimated trajectories as TUM pose files, one pair per trajectory.
+
+        Each stored episode (run-navigation) or track-eval trajectory the options select
+        becomes two files with identical timestamps: X.gt.txt and X.est.txt in a folder
+        episodes/LEVEL or track-eval/LEVEL of DIR, where X names the estimator, noise, task
+        (or trajectory), seed and key. DIR/index.csv lists every pair. Check one with evo:
+        evo_ape tum X.gt.txt X.est.txt
+        """
+        from navbench.errors import ConfigError
+        from navbench.pipeline.run import open_db
+        from navbench.pipeline.tracking import export_trajectories
+
+        try:
+            tasks = [int(t) for t in parse_list(task)] or None
+        except ValueError:
+            raise ConfigError(f"--task: expected comma-separated whole numbers, got {task!r}") from None
+        with open_db(db) as rdb:
+            run_id = None
+            if run == "latest":
+                run_id = rdb.latest_run_id()
+                if run_id is None:
+                    raise ConfigError(f"--run latest: no run in {rdb.display_url}")
+            elif run is not None:
+                try:
+                    run_id = int(run)
+                except ValueError:
+                    raise ConfigError(f"--run: expected a run id or latest, got {run!r}") from None
+            pairs = export_trajectories(out, rdb, run=run_id, level=parse_list(level) or None,
+                                        estimator=parse_list(estimator) or None,
+                                        noise=parse_list(noise) or None, task=tasks, source=source, dt=dt)
+        if json_out:
+            print_json({"out": str(out), "pairs": len(pairs), "index": str(out / "index.csv"),
+                        "files": [{"gt": str(p.gt), "est": str(p.est), "source": p.source,
+                                   "level": p.level, "estimator": p.estimator, "noise": p.noise,
+                                   "task": p.task, "seed": p.seed, "loc_rmse_m": p.loc_rmse_m}
+                                  for p in pairs]})
+            return
+        n_ep = sum(p.source == "episode" for p in pairs)
+        console.print(f"exported {len(pairs)} trajectory pairs ({n_ep} episodes, "
+                      f"{len(pairs) - n_ep} track-eval) -> {out} (index: {out / 'index.csv'})",
+                      markup=False, soft_wrap=True)
