@@ -163,8 +163,18 @@ def test_cli_json_csv_table(db, tmp_path):
     runner = CliRunner()
     res = runner.invoke(app, ["score", "--format", "json", "--db", url, "--boot", "100"])
     assert res.exit_code == 0, res.output
-    data = json.loads(res.stdout)
+    doc = json.loads(res.stdout)
+    assert set(doc) == {"scores", "paired_differences"}
+    data = doc["scores"]
     assert isinstance(data, list) and len(data) == 7
+    # ours and dynamics share l1 / low / task 0 / seed 0 (the helper's rows have no condition
+    # key: they pair by level, map and noise): one pair, ours' other 3 + 2 episodes unpaired
+    (claim,) = [d for d in doc["paired_differences"] if d["level"] == "all" and d["noise"] == "low"]
+    assert claim["comparison"] == "ours \u2212 dynamics" and claim["pairs"] == 1
+    assert claim["unpaired_reference"] == 5 and claim["spl_diff"] == pytest.approx(0.9)
+    # at high noise only ours ran: no pair, its episode counted as unpaired, no difference
+    (high,) = [d for d in doc["paired_differences"] if d["level"] == "all" and d["noise"] == "high"]
+    assert high["pairs"] == 0 and high["unpaired_reference"] == 1 and high["spl_diff"] is None
     need = {"level", "estimator", "noise", "episodes", "success_rate", "spl", "spl_ci_low",
             "spl_ci_high", "loc_rmse_m", "rot_rmse_deg", "step_ms"}
     assert all(need <= set(d) for d in data)
