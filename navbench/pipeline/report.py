@@ -219,7 +219,8 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
     caption = "Runs (times in UTC; config hash and commit abbreviated)"
     if (runs["status"] == "running").any():
         caption += ("; status running: the run had not finished when this page was written (a "
-                    "`navbench all` run writes its report before it finishes)")
+                    "`navbench all` run is marked done before it draws its report, so this is "
+                    "another command, still running or killed)")
     page.table(t, "runs", caption)
     for _, r in runs.tail(5).iterrows():
         page.sections.append(
