@@ -133,10 +133,11 @@ def test_report_embeds_every_figure_and_writes_csvs(synthetic, fake_isometric):
                          levels_dir=tmp / "levels", n_boot=200)
     assert index == out / "index.html"
     text = index.read_text()
-    assert text.count("<img ") == text.count('src="data:image/png;base64,') == 5
-    # SPL bars, RMSE CDFs, runtime bars, one level (lvB has no file), one isometric map
+    assert text.count("<img ") == text.count('src="data:image/png;base64,') == 6
+    # SPL bars, paired differences, RMSE CDFs, runtime bars, one level (lvB has no file), one
+    # isometric map
     images = _images(text)
-    assert len(images) == 5
+    assert len(images) == 6
     from PIL import Image
     import io
 
@@ -180,7 +181,7 @@ def test_report_without_optional_parts(synthetic, monkeypatch):
     monkeypatch.setitem(sys.modules, "navbench.worldmodel.plots", None)  # import fails
     index = build_report(db, tmp / "r2", levels_dir=tmp / "levels", n_boot=50)
     text = index.read_text()
-    assert len(_images(text)) == 4  # SPL, CDFs, runtime, level lvA without trajectories
+    assert len(_images(text)) == 5  # SPL, claim, CDFs, runtime, level lvA without trajectories
     assert "draw_isometric is not available" in text
     assert "No trajectory loader given" in text
 
@@ -260,7 +261,7 @@ def test_report_cli(synthetic, fake_isometric):
     assert res.exit_code == 0, res.output
     text = (out / "index.html").read_text()
     # the stage cache is empty: trajectories and the map are reported unavailable, figures remain
-    assert "unavailable" in text and len(_images(text)) == 4
+    assert "unavailable" in text and len(_images(text)) == 5
 
 
 def test_report_cli_missing_database_is_one_line(tmp_path):
@@ -301,7 +302,7 @@ def test_report_renders_in_headless_chromium(synthetic, fake_isometric):
                          levels_dir=tmp / "levels", n_boot=50)
     text = index.read_text()
     n = len(_images(text))
-    assert n == 5
+    assert n == 6
     # a copy of the page with a probe that records, after load, how many images decoded
     probe = out / "probe.html"
     probe.write_text(text.replace("</body>", CHECK_SCRIPT + "</body>"))
@@ -354,5 +355,6 @@ def test_report_from_real_records_through_the_stage_cache(tmp_path, fake_isometr
         index = build_report(db, tmp_path / "out", load_trajectory, load_map,
                              levels_dir=tmp_path / "levels", n_boot=50)
     text = index.read_text()
-    assert "1 trajectories" in text and "unavailable" not in text
+    # Fig. 3 draws the episode (task 0) over the learned planning slice of its map
+    assert "tasks 0 by every estimator" in text and "unavailable" not in text
     assert len(fake_isometric) == 1 and isinstance(fake_isometric[0], VoxelMap)
