@@ -243,6 +243,11 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
            "keeps every level's episode count); medians a percentile bootstrap.")
     page.table(table, "scores", "Scores per level, estimator and noise (level 'all': pooled); "
                "value [95% interval]", digits=3, display=_compact_scores(table))
+    idle = sorted(set(table.loc[~table["tracking_work"].astype(bool), "estimator"])) \
+        if "tracking_work" in table.columns else []
+    if idle:
+        page.note(f"{', '.join(idle)}: no per-step tracking work, so no step time or rate is shown "
+                  "(the step is the simulator and controller alone; scores.csv has its median).")
 
 
 def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
@@ -260,7 +265,8 @@ def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
         rows.append({"level": r["level"], "estimator": r["estimator"], "noise": r["noise"],
                      "episodes": r["episodes"], "success rate": fmt(r, "success_rate", 2),
                      "SPL": fmt(r, "spl", 2), "loc RMSE (m)": fmt(r, "loc_rmse_m", 3),
-                     "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2), "step (ms)": fmt(r, "step_ms", 1),
+                     "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2),
+                     "step (ms)": fmt(r, "step_ms", 1) if bool(r.get("tracking_work", True)) else "–",
                      "rate (Hz)": "–" if not np.isfinite(r["step_hz"]) else f"{r['step_hz']:.1f}"})
     return pd.DataFrame(rows)
 

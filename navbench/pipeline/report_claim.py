@@ -16,6 +16,7 @@ from navbench.pipeline.score import (
     CLAIM_OTHERS,
     CLAIM_REFERENCE,
     ESTIMATOR_ORDER,
+    NO_WORK_MS,
     NOISE_ORDER,
     _order_key,
     estimator_variants,
@@ -24,10 +25,6 @@ from navbench.pipeline.score import (
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
-
-#: Per-step medians below this many milliseconds are "no work" (an estimator that renders
-#: nothing and optimises nothing, such as ``dynamics`` and ``gt``): shown as "–", not as a rate.
-NO_WORK_MS = 0.05
 
 #: Columns of the per-episode CSV (``episodes.csv``), in this order (those present).
 EPISODE_CSV_COLUMNS = (

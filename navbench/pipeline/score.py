@@ -16,7 +16,7 @@ Per group (level, estimator, noise; plus ``level = "all"`` pooled over levels):
   embodied navigation agents");
 * ``loc_rmse_m``, ``rot_rmse_deg`` -- median over episodes of the per-trajectory RMSE;
 * ``step_ms`` -- median over episodes of the per-episode median step time; ``step_hz`` = 1000 /
-  ``step_ms``.
+  ``step_ms``, left empty where ``tracking_work`` is False (:data:`NO_WORK_MS`).
 
 Intervals (95 %, seeded, so a score is deterministic):
 
@@ -190,6 +190,24 @@ def with_identities(frame: "pandas.DataFrame", tasks: "pandas.DataFrame | None" 
     return f
 
 
+#: Median per-step render + estimate time (ms) below which an estimator does no tracking work
+#: (``dynamics``, ``gt``: no map render, no optimisation); its step time is the simulator's and
+#: controller's alone, so no step rate is given for it (``step_hz`` NaN, ``tracking_work`` False).
+NO_WORK_MS = 0.05
+
+
+def tracks_per_step(cell: "pandas.DataFrame") -> bool:
+    """Whether the episodes' median per-step render + estimate time reaches :data:`NO_WORK_MS`
+    (True when the timings are not stored)."""
+    cols = [c for c in ("render_ms", "estimate_ms") if c in cell.columns]
+    if not cols:
+        return True
+    work = cell[cols].astype(float)
+    if work.isna().all().all():
+        return True
+    return bool(np.median(work.fillna(0.0).sum(axis=1).to_numpy()) >= NO_WORK_MS)
+
+
 def _strata(cell: "pandas.DataFrame", col: str) -> list[np.ndarray]:
     """The values of ``col`` split by level (the bootstrap's strata), levels in sorted order."""
     return [g[col].to_numpy(dtype=float) for _, g in cell.groupby("level", sort=True)]
@@ -208,7 +226,7 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
     columns = ["level", "estimator", "noise", "episodes", "setups"]
     for name, _, _ in METRICS:
         columns += [name, f"{name}_ci_low", f"{name}_ci_high"]
-    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high"]
+    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high", "tracking_work"]
     if frame.empty:
         return pd.DataFrame(columns=columns)
     f = frame.copy()
@@ -240,6 +258,9 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
                 hi, lo = row["step_ms_ci_low"], row["step_ms_ci_high"]
                 row["step_hz_ci_low"] = 1000.0 / lo if lo > 0 else float("nan")
                 row["step_hz_ci_high"] = 1000.0 / hi if hi > 0 else float("nan")
+            row["tracking_work"] = tracks_per_step(cell)
+            if not row["tracking_work"]:  # a step of dynamics/gt is no tracking rate
+                row["step_hz"] = row["step_hz_ci_low"] = row["step_hz_ci_high"] = float("nan")
             out.append(row)
     table = pd.DataFrame(out, columns=columns)
     key = table.apply(lambda r: (r["level"] == "all", r["level"],

@@ -79,13 +79,14 @@ def score(
             out.add_section()
         previous = r["level"]
         hz = "-" if r["step_hz"] != r["step_hz"] else f"{r['step_hz']:.1f}"
+        idle = not bool(r.get("tracking_work", True))  # dynamics, gt: no tracking rate to show
         out.add_row(escape(str(r["level"])), escape(str(r["estimator"])), escape(str(r["noise"])),
                     str(r["episodes"]),
                     _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
                     _fmt(r["spl"], r["spl_ci_low"], r["spl_ci_high"], 2),
                     _fmt(r["loc_rmse_m"], r["loc_rmse_m_ci_low"], r["loc_rmse_m_ci_high"], 3),
                     _fmt(r["rot_rmse_deg"], r["rot_rmse_deg_ci_low"], r["rot_rmse_deg_ci_high"], 2),
-                    _fmt(r["step_ms"], r["step_ms_ci_low"], r["step_ms_ci_high"], 1), hz)
+                    "-" if idle else _fmt(r["step_ms"], r["step_ms_ci_low"], r["step_ms_ci_high"], 1), hz)
     console.print(out)
     if not paired.empty:
         console.print(_paired_table(paired, escape))
