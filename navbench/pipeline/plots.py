@@ -235,17 +235,25 @@ def draw_level_outline(ax, level: "Level") -> None:
     ax.set_title(level.name)
 
 
+#: Colour of the learned planning slice in Fig. 3 (RGB, alpha for the legend patch).
+SLICE_COLOUR = (0.89, 0.12, 0.76, 0.5)
+
+
 def plot_planning_slice(ax, occ2d, xs, ys) -> None:
     """The learned map's planning slice (``occ2d (nx, ny)`` bool over cell centres ``xs``,
-    ``ys``, world metres) as a translucent red overlay: what the planner believes is occupied."""
+    ``ys``, world metres): what the planner believes is occupied, as a translucent magenta fill
+    with its outline (:data:`SLICE_COLOUR`), over the true level."""
     occ = np.asarray(occ2d, bool)
     xs, ys = np.asarray(xs, float), np.asarray(ys, float)
     dx = (xs[-1] - xs[0]) / max(len(xs) - 1, 1)
     dy = (ys[-1] - ys[0]) / max(len(ys) - 1, 1)
     rgba = np.zeros(occ.T.shape + (4,))
-    rgba[occ.T] = (0.85, 0.1, 0.1, 0.35)
+    rgba[occ.T] = SLICE_COLOUR[:3] + (0.3,)
     ax.imshow(rgba, origin="lower", interpolation="nearest", zorder=4,
               extent=(xs[0] - dx / 2, xs[-1] + dx / 2, ys[0] - dy / 2, ys[-1] + dy / 2))
+    if occ.any() and not occ.all() and min(occ.shape) > 1:
+        ax.contour(xs, ys, occ.T.astype(float), levels=[0.5], colors=[SLICE_COLOUR[:3]],
+                   linewidths=0.8, zorder=4.5)
 
 
 def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
@@ -254,8 +262,8 @@ def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
                     plans: Sequence[Any] = (), planning_slice: tuple | None = None,
                     legend: bool = True) -> None:
     """Fig. 3: the level's top view, its tasks (start dots, target crosses) and trajectories
-    (true path solid, estimated path dashed, in the same colour; target star; a black-edged
-    red cross where a trajectory marked ``"failed": True`` ended).
+    (true path solid, estimated path dashed, in the same colour; target star; a black cross
+    where a trajectory marked ``"failed": True`` ended).
 
     ``colours``: one per trajectory (default: tab10). ``plans``: planned paths ``(K, 2)`` drawn
     dotted black. ``planning_slice``: ``(occ2d, xs, ys)`` of the learned map, drawn over the
@@ -273,8 +281,8 @@ def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
     for i, plan in enumerate(plans):
         plan = np.asarray(plan, float)
         if plan.ndim == 2 and len(plan):
-            ax.plot(plan[:, 0], plan[:, 1], color="black", linestyle=":", linewidth=1.2, zorder=6,
-                    label="planned path" if i == 0 else None)
+            ax.plot(plan[:, 0], plan[:, 1], color="black", linestyle=(0, (1, 1.5)), linewidth=1.8,
+                    zorder=7.5, label="planned path" if i == 0 else None)
     if tasks is not None and len(tasks):
         ax.scatter(tasks["start_x"], tasks["start_y"], s=6, color="#555555", zorder=5,
                    label=f"task starts ({len(tasks)})")
@@ -297,7 +305,7 @@ def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
             ax.plot(target[0], target[1], marker="*", color=colour, markersize=10,
                     markeredgecolor="black", markeredgewidth=0.5, zorder=8)
         if tr.get("failed"):
-            ax.plot(true[-1, 0], true[-1, 1], marker="X", color="#d62728", markersize=9,
-                    markeredgecolor="black", markeredgewidth=0.6, zorder=9)
+            ax.plot(true[-1, 0], true[-1, 1], marker="X", color="black", markersize=10,
+                    markeredgecolor="white", markeredgewidth=0.8, zorder=9)
     if legend and ((tasks is not None and len(tasks)) or len(trajectories)):
         ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)

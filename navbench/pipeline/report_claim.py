@@ -271,13 +271,16 @@ def draw_fig3(fig, level, tasks, panels: dict, planning_slice=None) -> None:
     handles = [Line2D([], [], color=c, linewidth=1.6, label=v) for v, c in variants.items()]
     handles += [Line2D([], [], color="black", linewidth=1.4, label="true path"),
                 Line2D([], [], color="black", linewidth=1.0, linestyle="--", label="inferred path"),
-                Line2D([], [], color="black", linewidth=1.2, linestyle=":", label="planned path"),
-                Line2D([], [], color="#d62728", marker="X", linestyle="none", markeredgecolor="black",
-                       label="failed episode's end")]
+                Line2D([], [], color="black", linewidth=1.8, linestyle=(0, (1, 1.5)), label="planned path"),
+                Line2D([], [], color="black", marker="X", markersize=9, linestyle="none",
+                       markeredgecolor="white", label="failed episode's end")]
     if planning_slice is not None:
         from matplotlib.patches import Patch
 
-        handles.append(Patch(color=(0.85, 0.1, 0.1, 0.35), label="learned planning slice"))
+        from navbench.pipeline.plots import SLICE_COLOUR
+
+        handles.append(Patch(facecolor=SLICE_COLOUR[:3] + (0.3,), edgecolor=SLICE_COLOUR[:3],
+                             label="learned planning slice (band)"))
     fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 5), fontsize=8,
                bbox_to_anchor=(0.5, -0.02))
     fig.subplots_adjust(bottom=0.16)
@@ -322,5 +325,5 @@ def level_runs_figure(page: Any, name: str, level, tasks, eps: "pandas.DataFrame
                 f"{name}: top view, {ntasks} tasks (dots: starts, crosses: targets); tasks "
                 f"{', '.join(map(str, shown)) or 'none'} by every estimator at each noise level "
                 f"(the tasks with the most failures first; seed {int(chosen['seed'].min()) if len(chosen) else 0}); "
-                "red overlay: the map's band slice the planner reads" + slice_note,
+                "magenta: the learned map's band slice the planner reads" + slice_note,
                 (6.0 * len(panels), 6.2))
