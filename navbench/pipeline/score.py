@@ -406,7 +406,7 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
             for lvl, g in groups:
                 for noise, c in g.groupby("noise", sort=False):
                     both = c[c["_merge"] == "both"]
-                    row = {"level": lvl, "noise": noise, "comparison": f"{ref} \u2212 {oth}",
+                    row = {"level": lvl, "noise": noise, "comparison": f"{ref} - {oth}",
                            "reference": ref, "other": oth, "pairs": int(len(both)),
                            "unpaired_reference": int((c["_merge"] == "left_only").sum()),
                            "unpaired_other": int((c["_merge"] == "right_only").sum())}

@@ -84,7 +84,7 @@ def test_paired_differences_on_a_constructed_table():
     from navbench.pipeline.score import paired_differences, with_identities
 
     p = paired_differences(with_identities(_claim_frame()), n_boot=500, seed=1)
-    assert list(p["comparison"].unique()) == ["ours \u2212 no-map", "ours \u2212 dynamics"]
+    assert list(p["comparison"].unique()) == ["ours - no-map", "ours - dynamics"]
     assert list(p["level"]) == ["a", "a", "b", "b", "all", "all"]
     row = p[(p["level"] == "a") & (p["other"] == "no-map")].iloc[0]
     # differences 0.4, 0.3, 0.2, 0.1: mean 0.25; success ours 1, no-map 0,1,1,1 -> 0.25

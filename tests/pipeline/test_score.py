@@ -170,7 +170,7 @@ def test_cli_json_csv_table(db, tmp_path):
     # ours and dynamics share l1 / low / task 0 / seed 0 (the helper's rows have no condition
     # key: they pair by level, map and noise): one pair, ours' other 3 + 2 episodes unpaired
     (claim,) = [d for d in doc["paired_differences"] if d["level"] == "all" and d["noise"] == "low"]
-    assert claim["comparison"] == "ours \u2212 dynamics" and claim["pairs"] == 1
+    assert claim["comparison"] == "ours - dynamics" and claim["pairs"] == 1
     assert claim["unpaired_reference"] == 5 and claim["spl_diff"] == pytest.approx(0.9)
     # at high noise only ours ran: no pair, its episode counted as unpaired, no difference
     (high,) = [d for d in doc["paired_differences"] if d["level"] == "all" and d["noise"] == "high"]
