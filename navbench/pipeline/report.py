@@ -448,9 +448,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     out.mkdir(parents=True, exist_ok=True)
     page = _Page(out)
     runs = db.runs_frame()
-    episodes = select_episodes(db, run=run)
-    if cell_keys is not None and not episodes.empty:
-        episodes = episodes[episodes["cell_key"].isin(set(cell_keys))].reset_index(drop=True)
+    episodes = select_episodes(db, run=run, cell_keys=cell_keys)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 

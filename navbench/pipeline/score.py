@@ -128,8 +128,11 @@ def estimator_variants(frame: "pandas.DataFrame") -> "pandas.Series":
 
 
 def select_episodes(db: "ResultsDB", run: int | str | None = None,
-                    level: str | list[str] | None = None) -> "pandas.DataFrame":
-    """The episodes that count (see the module docstring), optionally of one run and level(s)."""
+                    level: str | list[str] | None = None,
+                    cell_keys: "list[str] | set[str] | None" = None) -> "pandas.DataFrame":
+    """The episodes that count (see the module docstring), optionally of one run, level(s) and
+    cells (``cell_keys``: a run's grid); the selection comes before the once-per-(setup, task,
+    seed) rule, so a run's own cells keep all their episodes."""
     run_ids = None
     if run is not None and str(run) != "all":
         if str(run) == "latest":
@@ -146,6 +149,8 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
                 raise DatabaseError(f"no run with id {run_ids[0]} in {db.display_url}")
     levels = [level] if isinstance(level, str) else level
     frame = db.episodes_frame(run_ids=run_ids, level=levels or None)
+    if cell_keys is not None and not frame.empty:
+        frame = frame[frame["cell_key"].isin(set(cell_keys))]
     if not frame.empty:
         frame = (frame.sort_values("id")
                  .drop_duplicates(["cell_key", "task_id", "seed"], keep="last")
