@@ -507,9 +507,12 @@ def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryL
         from navbench.pipeline.artifacts import MAP_FILE
         from navbench.worldmodel.base import load_world_model
 
-        try:
-            return load_world_model(store.load("fit-map", key) / MAP_FILE)
-        except ArtifactError:  # a run planned on the true geometry (--map true)
-            return load_world_model(store.load("true-map", key) / MAP_FILE)
+        for stage in ("fit-map", "true-map"):  # a fitted map, or the true geometry (--map true)
+            try:
+                return load_world_model(store.load(stage, key) / MAP_FILE)
+            except ArtifactError:
+                continue
+        raise ArtifactError(f"no fit-map or true-map artifact with key {key[:12]} in {store.root} "
+                            "(a map brought with --map FILE is not kept in the cache)")
 
     return load_trajectory, load_map
