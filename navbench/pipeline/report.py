@@ -326,7 +326,6 @@ def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
                     load_map: MapLoader | None = None) -> None:
     from navbench.errors import NavbenchError
     from navbench.levelio import load_level
-    from navbench.pipeline.plots import plot_level_runs
 
     page.h2("Levels, tasks and trajectories (Fig. 3)", "levels")
     lv = db.levels_frame()
