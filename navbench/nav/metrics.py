@@ -127,3 +127,81 @@ def relative_pose_error(true_poses, est_poses, delta: int = 1) -> tuple[float, f
     ea = wrap_angle(ap - aq)
     return (float(np.sqrt(np.mean(np.sum(et ** 2, axis=1)))),
             float(np.degrees(np.sqrt(np.mean(ea ** 2)))))
+
+
+# --- intervals (issue 16): exact binomial for success rates, level-stratified bootstrap for SPL ---
+
+def clopper_pearson(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
+    """Exact binomial (Clopper-Pearson 1934) interval of a success rate ``successes / trials``.
+
+    The bounds are the Beta quantiles ``B((1-level)/2; k, n-k+1)`` and ``B((1+level)/2; k+1, n-k)``
+    (0 when ``k = 0``, 1 when ``k = n``), computed by :meth:`scipy.stats.binomtest` with
+    ``proportion_ci(method="exact")``. No trials: ``(nan, nan)``.
+    """
+    from scipy import stats
+
+    n, k = int(trials), int(successes)
+    if n <= 0:
+        return (float("nan"), float("nan"))
+    if not 0 <= k <= n:
+        raise ValueError(f"successes must lie in [0, {n}], got {k}")
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=level, method="exact")
+    return (float(ci.low), float(ci.high))
+
+
+def stratified_mean(strata) -> float:
+    """The pooled mean of the values of all ``strata`` (a list of 1D arrays): the strata's means
+    weighted by their sizes (NaNs dropped); nan when no value is left."""
+    parts = [np.asarray(s, dtype=float).ravel() for s in strata]
+    parts = [p[np.isfinite(p)] for p in parts]
+    total = sum(p.size for p in parts)
+    return float(sum(p.sum() for p in parts) / total) if total else float("nan")
+
+
+def stratified_bootstrap_ci(strata, level: float = 0.95, n_resamples: int = 2000, seed: int = 0,
+                            method: str = "BCa") -> tuple[float, float]:
+    """Bootstrap interval of the pooled mean of ``strata`` (1D arrays, e.g. one per level),
+    resampling within each stratum (stratified bootstrap; NaNs dropped, empty strata ignored).
+
+    Each stratum is passed to :func:`scipy.stats.bootstrap` as a separate sample (scipy
+    resamples independent samples separately, ``paired=False``), and the statistic recombines
+    them with the fixed weights ``n_k / N``: ``sum_k n_k / N * mean(resample_k)``. So every
+    resample keeps each level's episode count, and the pooled mean is the statistic's value on
+    the data. With one stratum this is scipy's one-sample bootstrap of the mean. ``method``:
+    ``"BCa"`` (bias-corrected and accelerated; its jackknife leaves out one value of one stratum
+    at a time) or ``"percentile"``; where BCa is undefined (a bootstrap distribution with no
+    spread) the percentile interval is returned, and a constant sample gives ``(v, v)``.
+    A stratum of one value is constant under resampling; it is passed twice over (the same
+    resamples) since scipy needs two values per sample. Seeded: ``numpy.random.default_rng(seed)``.
+    """
+    import warnings
+
+    from scipy import stats
+
+    parts = [np.asarray(s, dtype=float).ravel() for s in strata]
+    parts = [p[np.isfinite(p)] for p in parts]
+    parts = [p for p in parts if p.size]
+    if not parts:
+        return (float("nan"), float("nan"))
+    sizes = np.array([p.size for p in parts], dtype=float)
+    weights = sizes / sizes.sum()
+    allv = np.concatenate(parts)
+    if np.all(allv == allv[0]):
+        return (float(allv[0]), float(allv[0]))
+    data = tuple(np.repeat(p, 2) if p.size == 1 else p for p in parts)
+
+    def pooled(*samples, axis=-1):
+        return sum(w * np.mean(s, axis=axis) for w, s in zip(weights, samples))
+
+    def run(m: str):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy's DegenerateDataWarning: handled below
+            res = stats.bootstrap(data, pooled, n_resamples=n_resamples, vectorized=True,
+                                  paired=False, confidence_level=level, method=m,
+                                  rng=np.random.default_rng(seed))
+        return float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+    low, high = run(method)
+    if not (np.isfinite(low) and np.isfinite(high)) and method.lower() != "percentile":
+        low, high = run("percentile")
+    return (low, high)

@@ -89,6 +89,47 @@ def plot_spl(ax, table: "pandas.DataFrame", level: str = "all", paper: bool = Tr
         ax.legend(fontsize=8, ncol=2)
 
 
+def plot_paired_differences(ax, paired: "pandas.DataFrame", paper_margin=None) -> None:
+    """The paper's claim: ``reference - other`` SPL difference per noise level (groups) and
+    comparison (points), with its 95 % interval as error bars, a zero line, and the paper's
+    margin ``paper_margin(noise, other)`` (a callable, or None) as black ticks.
+
+    ``paired``: rows of :func:`navbench.pipeline.score.paired_differences` for one level.
+    """
+    noises = sorted(paired["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER))
+    others = sorted(paired["other"].unique(),
+                    key=lambda e: (_order_key(e.split("{")[0], ESTIMATOR_ORDER), e))
+    x = np.arange(len(noises))
+    width = 0.8 / max(len(others), 1)
+    drawn = False
+    for i, other in enumerate(others):
+        pos = x - 0.4 + width * (i + 0.5)
+        vals, lo, hi, paper = [], [], [], []
+        for n in noises:
+            r = paired[(paired["noise"] == n) & (paired["other"] == other)]
+            v = float(r["spl_diff"].iloc[0]) if len(r) and r["pairs"].iloc[0] else np.nan
+            vals.append(v)
+            lo.append(v - float(r["spl_diff_ci_low"].iloc[0]) if np.isfinite(v) else 0.0)
+            hi.append(float(r["spl_diff_ci_high"].iloc[0]) - v if np.isfinite(v) else 0.0)
+            paper.append(paper_margin(n, other) if paper_margin else np.nan)
+        label = str(paired.loc[paired["other"] == other, "comparison"].iloc[0])
+        ax.errorbar(pos, vals, yerr=[lo, hi], fmt="o", capsize=4, color=estimator_colour(other, i),
+                    label=label)
+        if np.isfinite(paper).any():
+            ax.plot(pos, paper, linestyle="none", marker="_", markersize=16, markeredgewidth=2,
+                    color="black", label=None if drawn else "paper")
+            drawn = True
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    ax.set_xticks(x)
+    ax.set_xticklabels(noises)
+    ax.set_xlabel("noise")
+    ax.set_ylabel("SPL difference")
+    ax.set_title("ours − ablation on the same tasks and seeds")
+    ax.grid(axis="y", alpha=0.3)
+    if others:
+        ax.legend(fontsize=8)
+
+
 def empirical_cdf(values) -> tuple[np.ndarray, np.ndarray]:
     """Sorted finite values ``x`` and ``F(x) = (rank) / n`` in [1/n, 1]."""
     x = np.sort(np.asarray(values, dtype=float)[np.isfinite(np.asarray(values, dtype=float))])
@@ -194,13 +235,40 @@ def draw_level_outline(ax, level: "Level") -> None:
     ax.set_title(level.name)
 
 
+#: Colour of the learned planning slice in Fig. 3 (RGB, alpha for the legend patch).
+SLICE_COLOUR = (0.89, 0.12, 0.76, 0.5)
+
+
+def plot_planning_slice(ax, occ2d, xs, ys) -> None:
+    """The learned map's planning slice (``occ2d (nx, ny)`` bool over cell centres ``xs``,
+    ``ys``, world metres): what the planner believes is occupied, as a translucent magenta fill
+    with its outline (:data:`SLICE_COLOUR`), over the true level."""
+    occ = np.asarray(occ2d, bool)
+    xs, ys = np.asarray(xs, float), np.asarray(ys, float)
+    dx = (xs[-1] - xs[0]) / max(len(xs) - 1, 1)
+    dy = (ys[-1] - ys[0]) / max(len(ys) - 1, 1)
+    rgba = np.zeros(occ.T.shape + (4,))
+    rgba[occ.T] = SLICE_COLOUR[:3] + (0.3,)
+    ax.imshow(rgba, origin="lower", interpolation="nearest", zorder=4,
+              extent=(xs[0] - dx / 2, xs[-1] + dx / 2, ys[0] - dy / 2, ys[-1] + dy / 2))
+    if occ.any() and not occ.all() and min(occ.shape) > 1:
+        ax.contour(xs, ys, occ.T.astype(float), levels=[0.5], colors=[SLICE_COLOUR[:3]],
+                   linewidths=0.8, zorder=4.5)
+
+
 def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
                     trajectories: Sequence[Mapping[str, Any]] = (),
-                    labels: Sequence[str] | None = None) -> None:
+                    labels: Sequence[str] | None = None, colours: Sequence[str] | None = None,
+                    plans: Sequence[Any] = (), planning_slice: tuple | None = None,
+                    legend: bool = True) -> None:
     """Fig. 3: the level's top view, its tasks (start dots, target crosses) and trajectories
-    (true path solid, estimated path dashed, in the same colour; target star).
+    (true path solid, estimated path dashed, in the same colour; target star; a black cross
+    where a trajectory marked ``"failed": True`` ended).
 
-    Uses :func:`navbench.levelview.draw_level` when available, else :func:`draw_level_outline`.
+    ``colours``: one per trajectory (default: tab10). ``plans``: planned paths ``(K, 2)`` drawn
+    dotted black. ``planning_slice``: ``(occ2d, xs, ys)`` of the learned map, drawn over the
+    level (:func:`plot_planning_slice`). Uses :func:`navbench.levelview.draw_level` when
+    available, else :func:`draw_level_outline`.
     """
     try:
         from navbench.levelview import draw_level
@@ -208,6 +276,13 @@ def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
         draw_level_outline(ax, level)
     else:
         draw_level(ax, level, colorbar=False)
+    if planning_slice is not None:
+        plot_planning_slice(ax, *planning_slice)
+    for i, plan in enumerate(plans):
+        plan = np.asarray(plan, float)
+        if plan.ndim == 2 and len(plan):
+            ax.plot(plan[:, 0], plan[:, 1], color="black", linestyle=(0, (1, 1.5)), linewidth=1.8,
+                    zorder=7.5, label="planned path" if i == 0 else None)
     if tasks is not None and len(tasks):
         ax.scatter(tasks["start_x"], tasks["start_y"], s=6, color="#555555", zorder=5,
                    label=f"task starts ({len(tasks)})")
@@ -217,7 +292,7 @@ def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
 
     cmap = mpl.colormaps["tab10"]
     for i, tr in enumerate(trajectories):
-        colour = cmap((i + 3) % 10)
+        colour = colours[i] if colours is not None and i < len(colours) else cmap((i + 3) % 10)
         true = np.asarray(tr["true_poses"], float)
         est = np.asarray(tr["est_poses"], float)
         label = labels[i] if labels is not None and i < len(labels) else f"run {i + 1}"
@@ -229,5 +304,8 @@ def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
         if target is not None:
             ax.plot(target[0], target[1], marker="*", color=colour, markersize=10,
                     markeredgecolor="black", markeredgewidth=0.5, zorder=8)
-    if (tasks is not None and len(tasks)) or len(trajectories):
+        if tr.get("failed"):
+            ax.plot(true[-1, 0], true[-1, 1], marker="X", color="black", markersize=10,
+                    markeredgecolor="white", markeredgewidth=0.8, zorder=9)
+    if legend and ((tasks is not None and len(tasks)) or len(trajectories)):
         ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)

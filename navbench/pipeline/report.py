@@ -179,21 +179,6 @@ def _cdf_groups(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame"):
     return src, loc, rot, styles
 
 
-def _pick_trajectories(eps: "pandas.DataFrame", count: int) -> "pandas.DataFrame":
-    """A few episodes with stored trajectories: successful ones of the best-ranked estimator at
-    the lowest noise first, then by task id (deterministic)."""
-    e = eps[eps["traj_key"].notna()].copy()
-    if e.empty:
-        return e
-    e["_est"] = e["estimator"].map(lambda s: _order_key(s, ESTIMATOR_ORDER))
-    e["_noise"] = e["noise"].map(lambda s: _order_key(s, NOISE_ORDER))
-    e["_fail"] = ~e["success"].astype(bool)
-    e = e.sort_values(["_fail", "_est", "_noise", "task_id", "seed", "id"])
-    first = e.iloc[0]
-    same = e[(e["estimator"] == first["estimator"]) & (e["noise"] == first["noise"])]
-    return same.drop_duplicates("task_id").head(count)
-
-
 def _level_file(levels_dir: Path, name: str, meta: dict | None) -> Path | None:
     candidates = [levels_dir / f"{name}.json"]
     if meta and isinstance(meta.get("path"), str):
@@ -219,7 +204,8 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
     caption = "Runs (times in UTC; config hash and commit abbreviated)"
     if (runs["status"] == "running").any():
         caption += ("; status running: the run had not finished when this page was written (a "
-                    "`navbench all` run writes its report before it finishes)")
+                    "`navbench all` run is marked done before it draws its report, so this is "
+                    "another command, still running or killed)")
     page.table(t, "runs", caption)
     for _, r in runs.tail(5).iterrows():
         page.sections.append(
@@ -241,7 +227,8 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     if warning:
         page.note("Warning: " + warning.replace("--run", "`navbench report --run`") + ".")
     m = spl_matrix(table, "all")
-    page.table(m, "spl_table", "SPL pooled over all levels, [95% bootstrap interval]", index=True)
+    page.table(m, "spl_table", "SPL pooled over all levels, [95% BCa bootstrap interval stratified "
+               "by level]", index=True)
     paper = pd.DataFrame(
         [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
         index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
@@ -250,10 +237,17 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
                 "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
                 "interval; black ticks: the paper's values", (8, 4.2))
     page.h2("Scores per level", "scores")
-    page.p("Every stored episode counts once per (cell, task, seed); success rate and SPL are means, "
-           "RMSEs and step times medians over episodes, each with a 95% percentile-bootstrap interval.")
+    page.p("Every stored episode counts once per (setup, task, seed); success rate and SPL are "
+           "means, RMSEs and step times medians over episodes. 95% intervals: success rate exact "
+           "binomial (Clopper-Pearson); SPL a BCa bootstrap stratified by level (each resample "
+           "keeps every level's episode count); medians a percentile bootstrap.")
     page.table(table, "scores", "Scores per level, estimator and noise (level 'all': pooled); "
                "value [95% interval]", digits=3, display=_compact_scores(table))
+    idle = sorted(set(table.loc[~table["tracking_work"].astype(bool), "estimator"])) \
+        if "tracking_work" in table.columns else []
+    if idle:
+        page.note(f"{', '.join(idle)}: no per-step tracking work, so no step time or rate is shown "
+                  "(the step is the simulator and controller alone; scores.csv has its median).")
 
 
 def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
@@ -271,12 +265,13 @@ def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
         rows.append({"level": r["level"], "estimator": r["estimator"], "noise": r["noise"],
                      "episodes": r["episodes"], "success rate": fmt(r, "success_rate", 2),
                      "SPL": fmt(r, "spl", 2), "loc RMSE (m)": fmt(r, "loc_rmse_m", 3),
-                     "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2), "step (ms)": fmt(r, "step_ms", 1),
+                     "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2),
+                     "step (ms)": fmt(r, "step_ms", 1) if bool(r.get("tracking_work", True)) else "–",
                      "rate (Hz)": "–" if not np.isfinite(r["step_hz"]) else f"{r['step_hz']:.1f}"})
     return pd.DataFrame(rows)
 
 
-def _section_tracking(page: _Page, episodes, tracking) -> None:
+def _section_tracking(page: _Page, episodes, tracking, bench=None) -> None:
     import pandas as pd
 
     from navbench.pipeline.plots import plot_loc_cdf, plot_rot_cdf, plot_step_runtime
@@ -310,17 +305,27 @@ def _section_tracking(page: _Page, episodes, tracking) -> None:
     if rt.empty:
         page.note("No timings stored yet.")
         return
-    page.figure(lambda fig: plot_step_runtime(fig.add_subplot(), rt),
-                "Median time per step by component (sim, render, estimate, plan, control); "
-                "label: median total step time and rate", (9, 0.7 + 0.55 * len(rt)))
+    from navbench.pipeline.report_claim import section_speed_vs_paper, split_no_work
+
+    work, idle = split_no_work(rt)
+    if not work.empty:
+        page.figure(lambda fig: plot_step_runtime(fig.add_subplot(), work),
+                    "Median time per step by component (sim, render, estimate, plan, control); "
+                    "label: median total step time and rate", (9, 0.7 + 0.55 * len(work)))
+    if idle:
+        rt.loc[idle, "step_hz"] = np.nan  # not a tracking rate: shown as "–"
+        page.note(f"{', '.join(idle)}: no per-step tracking work (no map render, no "
+                  "optimisation); their step is the simulator and controller alone, left out of "
+                  "the figure, and no rate is given.")
     page.table(rt, "runtime", "Median per-step milliseconds by component", index=True, digits=4)
+    section_speed_vs_paper(page, episodes, bench)
 
 
 def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
-                    load_trajectory: TrajectoryLoader | None, per_level: int) -> None:
+                    load_trajectory: TrajectoryLoader | None, per_level: int,
+                    load_map: MapLoader | None = None) -> None:
     from navbench.errors import NavbenchError
     from navbench.levelio import load_level
-    from navbench.pipeline.plots import plot_level_runs
 
     page.h2("Levels, tasks and trajectories (Fig. 3)", "levels")
     lv = db.levels_frame()
@@ -349,22 +354,9 @@ def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
             tasks = db.tasks_frame(level=name)
             if not tasks.empty:
                 tasks = tasks[tasks["task_set_key"] == tasks["task_set_key"].iloc[-1]]
-        trajs, labels = [], []
-        if load_trajectory is not None and not eps.empty:
-            for _, e in _pick_trajectories(eps, per_level).iterrows():
-                try:
-                    tr = load_trajectory(e["traj_key"])
-                except (NavbenchError, OSError, KeyError, ValueError) as err:
-                    page.note(f"Level {name}: trajectory {str(e['traj_key'])[:12]} unavailable ({err})")
-                    continue
-                trajs.append(tr)
-                labels.append(f"task {e['task_id']} ({e['estimator']}, {e['noise']}, "
-                              f"{'success' if e['success'] else 'failure'})")
-        page.figure(lambda fig, level=level, tasks=tasks, trajs=trajs, labels=labels:
-                    plot_level_runs(fig.add_subplot(), level, tasks, trajs, labels),
-                    f"{name}: top view, {0 if tasks is None else len(tasks)} tasks, "
-                    f"{len(trajs)} trajectories (solid: truth, dashed: inferred, star: target)",
-                    (9, 6))
+        from navbench.pipeline.report_claim import level_runs_figure
+
+        level_runs_figure(page, name, level, tasks, eps, load_trajectory, load_map, per_level)
 
 
 def _section_maps(page: _Page, maps: "pandas.DataFrame", load_map: MapLoader | None) -> None:
@@ -455,22 +447,26 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     out.mkdir(parents=True, exist_ok=True)
     page = _Page(out)
     runs = db.runs_frame()
-    episodes = select_episodes(db, run=run)
-    if cell_keys is not None and not episodes.empty:
-        episodes = episodes[episodes["cell_key"].isin(set(cell_keys))].reset_index(drop=True)
+    episodes = select_episodes(db, run=run, cell_keys=cell_keys)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 
+    from navbench.pipeline.report_claim import section_claim, section_failures
+
     _section_runs(page, runs)
     _section_spl(page, table)
-    _section_tracking(page, episodes, tracking)
-    _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level)
+    section_claim(page, episodes, n_boot, seed)
+    section_failures(page, episodes)
+    _section_tracking(page, episodes, tracking, db.bench_frame())
+    _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level,
+                    load_map)
     _section_maps(page, db.maps_frame(), load_map)
     _section_bench(page, db.bench_frame())
 
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
-        ("runs", "Runs"), ("spl", "SPL"), ("scores", "Scores"), ("tracking", "Tracking"),
+        ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), ("failures", "Failures"),
+        ("scores", "Scores"), ("tracking", "Tracking"),
         ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench")))
     doc = (
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
@@ -502,12 +498,20 @@ def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryL
 
         rec = load_record(store.load("episode", key) / TRAJ_FILE)
         return {"true_poses": np.asarray(rec.true_poses), "est_poses": np.asarray(rec.est_poses),
-                "target": np.asarray(rec.target)}
+                "target": np.asarray(rec.target), "plan": np.asarray(rec.plan),
+                "end_reason": rec.end_reason}
 
     def load_map(key: str):
+        from navbench.errors import ArtifactError
         from navbench.pipeline.artifacts import MAP_FILE
         from navbench.worldmodel.base import load_world_model
 
-        return load_world_model(store.load("fit-map", key) / MAP_FILE)
+        for stage in ("fit-map", "true-map"):  # a fitted map, or the true geometry (--map true)
+            try:
+                return load_world_model(store.load(stage, key) / MAP_FILE)
+            except ArtifactError:
+                continue
+        raise ArtifactError(f"no fit-map or true-map artifact with key {key[:12]} in {store.root} "
+                            "(a map brought with --map FILE is not kept in the cache)")
 
     return load_trajectory, load_map

@@ -224,10 +224,22 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     with open_db(db) as rdb:
         ctx = stage_context(progress, rdb, cache_root=cache_root)
         command = command or f"run_profile({prof.name!r})"
-        with recorded_run(rdb, prof.name, command, prof, ctx, f"{ref_name}-{prof.name}") as run_id:
+        ref = f"{ref_name}-{prof.name}"
+        with recorded_run(rdb, prof.name, command, prof, ctx, ref) as run_id:
             inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress)
             score = score_stage(ctx, summary.cells) if until in ("score", "report") else None
-            report = report_stage(ctx, summary.cells, score) if until == "report" else None
+        # The run is marked done before its report is drawn, so the page it publishes shows it
+        # finished; a report that fails marks it failed (or interrupted) after all.
+        report = None
+        if until == "report":
+            try:
+                report = report_stage(ctx, summary.cells, score)
+            except BaseException as e:
+                rdb.finish_run(run_id, "interrupted" if isinstance(e, KeyboardInterrupt) else "failed")
+                raise
+            finally:
+                if ctx.used:
+                    ctx.store.set_ref(ref, ctx.used)
     report_path = report.path if report is not None else None
     if report is not None and report_dir is not None:
         report_path = publish(report.path.parent, Path(report_dir), protected, "--report") / report.path.name

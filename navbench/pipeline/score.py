@@ -2,10 +2,12 @@
 
 Which episodes count: every stored episode, once. The ``episodes`` table is unique on
 (cell_key, task_id, seed) and inserts never overwrite, so each (cell, task, seed) contributes the
-single value recorded the first time it completed (reruns skip done keys); when several rows of a
-key could ever be present, the latest one (highest row id) is kept. ``run`` narrows this to the
-episodes a given run inserted (``"latest"``: the newest run that stored episodes) -- note that a
-resumed run owns only the episodes it added.
+single value recorded the first time it completed (reruns skip done keys). A cell's key hashes
+its task set, so ``--tasks 2`` then ``--tasks 4`` store tasks 0 and 1 under two cells: episodes
+are therefore counted once per (setup, task, seed) (:func:`with_identities`: the setup is the
+cell without its task set, the task is its start and target), the first stored row kept. ``run``
+narrows this to the episodes a given run inserted (``"latest"``: the newest run that stored
+episodes) -- note that a resumed run owns only the episodes it added.
 
 Per group (level, estimator, noise; plus ``level = "all"`` pooled over levels):
 
@@ -14,11 +16,20 @@ Per group (level, estimator, noise; plus ``level = "all"`` pooled over levels):
   embodied navigation agents");
 * ``loc_rmse_m``, ``rot_rmse_deg`` -- median over episodes of the per-trajectory RMSE;
 * ``step_ms`` -- median over episodes of the per-episode median step time; ``step_hz`` = 1000 /
-  ``step_ms``.
+  ``step_ms``, left empty where ``tracking_work`` is False (:data:`NO_WORK_MS`).
 
-Each with a 95 % percentile-bootstrap interval (:func:`bootstrap_ci`, seeded, 2000 resamples of
-the group's episodes). An estimator run with several option sets is split into variants labelled
-``name{key=value,...}``.
+Intervals (95 %, seeded, so a score is deterministic):
+
+* ``success_rate`` -- exact binomial (Clopper-Pearson), :func:`navbench.nav.metrics.clopper_pearson`
+  (pooled rows: on the total count of successes);
+* ``spl`` -- bootstrap stratified by level, BCa (:func:`navbench.nav.metrics.stratified_bootstrap_ci`,
+  ``n_boot`` resamples; every resample keeps each level's episode count; a per-level row has one
+  stratum);
+* the medians (RMSEs, step time) -- percentile bootstrap of the group's episodes (:func:`bootstrap_ci`).
+
+:func:`paired_differences` gives the paper's claim: ``ours - no-map`` and ``ours - dynamics`` SPL
+and success on the same (condition, task, seed), with a paired bootstrap stratified by level.
+An estimator run with several option sets is split into variants labelled ``name{key=value,...}``.
 
 ``setups`` counts the cells a group pools within one level: 1 unless the database holds the same
 (level, estimator, noise) under several maps, task sets or episode settings (say a quick run and
@@ -34,6 +45,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from navbench.errors import DatabaseError
+from navbench.nav.metrics import clopper_pearson, stratified_bootstrap_ci
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
@@ -116,8 +128,11 @@ def estimator_variants(frame: "pandas.DataFrame") -> "pandas.Series":
 
 
 def select_episodes(db: "ResultsDB", run: int | str | None = None,
-                    level: str | list[str] | None = None) -> "pandas.DataFrame":
-    """The episodes that count (see the module docstring), optionally of one run and level(s)."""
+                    level: str | list[str] | None = None,
+                    cell_keys: "list[str] | set[str] | None" = None) -> "pandas.DataFrame":
+    """The episodes that count (see the module docstring), optionally of one run, level(s) and
+    cells (``cell_keys``: a run's grid); the selection comes before the once-per-(setup, task,
+    seed) rule, so a run's own cells keep all their episodes."""
     run_ids = None
     if run is not None and str(run) != "all":
         if str(run) == "latest":
@@ -134,11 +149,73 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
                 raise DatabaseError(f"no run with id {run_ids[0]} in {db.display_url}")
     levels = [level] if isinstance(level, str) else level
     frame = db.episodes_frame(run_ids=run_ids, level=levels or None)
+    if cell_keys is not None and not frame.empty:
+        frame = frame[frame["cell_key"].isin(set(cell_keys))]
     if not frame.empty:
         frame = (frame.sort_values("id")
                  .drop_duplicates(["cell_key", "task_id", "seed"], keep="last")
                  .reset_index(drop=True))
+        frame = with_identities(frame, db.tasks_frame())
+        frame = (frame.drop_duplicates(["setup", "task_uid", "seed"], keep="first")
+                 .reset_index(drop=True))
     return frame
+
+
+def with_identities(frame: "pandas.DataFrame", tasks: "pandas.DataFrame | None" = None) -> "pandas.DataFrame":
+    """``frame`` with the columns that say which episodes are the same experiment:
+
+    * ``setup`` -- ``condition_key|estimator|options`` (level, map, noise, episode config and
+      estimator: everything but the task set), or the ``cell_key`` for rows stored before
+      ``condition_key`` existed;
+    * ``task_uid`` -- the task itself: its id, start and target from the ``tasks`` table (so task
+      3 of a 4-task set and of the 200-task set it is the prefix of are one task), else
+      ``task_set_key:task_id``;
+    * ``pair_condition`` -- the ``condition_key`` (else ``level|map_key|noise``): episodes of two
+      estimators with equal ``(pair_condition, task_uid, seed)`` ran the same task with the same
+      simulator noise stream.
+
+    :func:`select_episodes` keeps one row per ``(setup, task_uid, seed)``: a larger ``--tasks``
+    or ``--seeds`` after a smaller one extends the same setup and never counts an episode twice.
+    """
+    f = frame.copy()
+    opts = f["estimator_options"].map(
+        lambda o: json.dumps(o if isinstance(o, dict) else {}, sort_keys=True))
+    cond = f["condition_key"] if "condition_key" in f.columns else f["cell_key"].map(lambda _: None)
+    has = cond.notna()
+    f["setup"] = f["cell_key"].astype(str)
+    f.loc[has, "setup"] = cond[has].astype(str) + "|" + f.loc[has, "estimator"].astype(str) + "|" + opts[has]
+    uid = {}
+    if tasks is not None and not tasks.empty:
+        for t in tasks.itertuples():
+            uid[(t.task_set_key, int(t.task_id))] = (f"{int(t.task_id)}@{t.start_x!r},{t.start_y!r},"
+                                                     f"{t.start_theta!r}->{t.target_x!r},{t.target_y!r}")
+    f["task_uid"] = [uid.get((k, int(i)), f"{k}:{int(i)}") for k, i in zip(f["task_set_key"], f["task_id"])]
+    legacy = f["level"].astype(str) + "|" + f["map_key"].astype(str) + "|" + f["noise"].astype(str)
+    f["pair_condition"] = cond.where(has, legacy).astype(str)
+    return f
+
+
+#: Median per-step render + estimate time (ms) below which an estimator does no tracking work
+#: (``dynamics``, ``gt``: no map render, no optimisation); its step time is the simulator's and
+#: controller's alone, so no step rate is given for it (``step_hz`` NaN, ``tracking_work`` False).
+NO_WORK_MS = 0.05
+
+
+def tracks_per_step(cell: "pandas.DataFrame") -> bool:
+    """Whether the episodes' median per-step render + estimate time reaches :data:`NO_WORK_MS`
+    (True when the timings are not stored)."""
+    cols = [c for c in ("render_ms", "estimate_ms") if c in cell.columns]
+    if not cols:
+        return True
+    work = cell[cols].astype(float)
+    if work.isna().all().all():
+        return True
+    return bool(np.median(work.fillna(0.0).sum(axis=1).to_numpy()) >= NO_WORK_MS)
+
+
+def _strata(cell: "pandas.DataFrame", col: str) -> list[np.ndarray]:
+    """The values of ``col`` split by level (the bootstrap's strata), levels in sorted order."""
+    return [g[col].to_numpy(dtype=float) for _, g in cell.groupby("level", sort=True)]
 
 
 def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
@@ -154,7 +231,7 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
     columns = ["level", "estimator", "noise", "episodes", "setups"]
     for name, _, _ in METRICS:
         columns += [name, f"{name}_ci_low", f"{name}_ci_high"]
-    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high"]
+    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high", "tracking_work"]
     if frame.empty:
         return pd.DataFrame(columns=columns)
     f = frame.copy()
@@ -166,18 +243,29 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
     out = []
     for lvl, g in groups:
         for (est, noise), cell in g.groupby(["variant", "noise"], sort=False):
-            setups = int(cell.groupby("level")["cell_key"].nunique().max())
+            setup_col = "setup" if "setup" in cell.columns else "cell_key"
+            setups = int(cell.groupby("level")[setup_col].nunique().max())
             row: dict[str, Any] = {"level": lvl, "estimator": est, "noise": noise,
                                    "episodes": int(len(cell)), "setups": setups}
             for name, col, stat in METRICS:
                 vals = cell[col].to_numpy(dtype=float)
                 row[name] = _point(vals, stat)
-                row[f"{name}_ci_low"], row[f"{name}_ci_high"] = bootstrap_ci(vals, stat, n_boot, seed)
+                if name == "success_rate":
+                    ok = vals[np.isfinite(vals)]
+                    ci = clopper_pearson(int(ok.sum()), ok.size, CI_LEVEL)
+                elif name == "spl":
+                    ci = stratified_bootstrap_ci(_strata(cell, col), CI_LEVEL, n_boot, seed)
+                else:
+                    ci = bootstrap_ci(vals, stat, n_boot, seed)
+                row[f"{name}_ci_low"], row[f"{name}_ci_high"] = ci
             with np.errstate(divide="ignore"):
                 row["step_hz"] = 1000.0 / row["step_ms"] if row["step_ms"] > 0 else float("nan")
                 hi, lo = row["step_ms_ci_low"], row["step_ms_ci_high"]
                 row["step_hz_ci_low"] = 1000.0 / lo if lo > 0 else float("nan")
                 row["step_hz_ci_high"] = 1000.0 / hi if hi > 0 else float("nan")
+            row["tracking_work"] = tracks_per_step(cell)
+            if not row["tracking_work"]:  # a step of dynamics/gt is no tracking rate
+                row["step_hz"] = row["step_hz_ci_low"] = row["step_hz_ci_high"] = float("nan")
             out.append(row)
     table = pd.DataFrame(out, columns=columns)
     key = table.apply(lambda r: (r["level"] == "all", r["level"],
@@ -212,12 +300,26 @@ def score_table(db: "ResultsDB", run: int | str | None = None, level: str | list
 
     Raises :class:`DatabaseError` when no episode matches.
     """
+    return summarise(_selected(db, run, level), n_boot=n_boot, seed=seed)
+
+
+def score_tables(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,
+                 n_boot: int = N_BOOT, seed: int = 0) -> tuple["pandas.DataFrame", "pandas.DataFrame"]:
+    """``(score table, paired differences)`` of the stored episodes: :func:`score_table` and
+    :func:`paired_differences` of the same selection. Raises :class:`DatabaseError` when no
+    episode matches."""
+    frame = _selected(db, run, level)
+    return (summarise(frame, n_boot=n_boot, seed=seed),
+            paired_differences(frame, n_boot=n_boot, seed=seed))
+
+
+def _selected(db: "ResultsDB", run, level) -> "pandas.DataFrame":
     frame = select_episodes(db, run=run, level=level)
     if frame.empty:
         what = [f"run {run}" if run not in (None, "all") else "", f"level {level}" if level else ""]
         detail = " for " + " and ".join(w for w in what if w) if any(what) else ""
         raise DatabaseError(f"no episodes{detail} in {db.display_url}; run `navbench run-navigation` first")
-    return summarise(frame, n_boot=n_boot, seed=seed)
+    return frame
 
 
 def spl_matrix(table: "pandas.DataFrame", level: str = "all", digits: int = 2) -> "pandas.DataFrame":
@@ -250,3 +352,84 @@ def table_records(table: "pandas.DataFrame") -> list[dict]:
             clean[k] = v
         records.append(clean)
     return records
+
+
+#: The paper's claim (Fig. 5a): ``ours`` against each ablation.
+CLAIM_REFERENCE = "ours"
+CLAIM_OTHERS = ("no-map", "dynamics")
+PAIRED_COLUMNS = ["level", "noise", "comparison", "reference", "other", "pairs", "unpaired_reference",
+                  "unpaired_other", "reference_spl", "other_spl", "spl_diff", "spl_diff_ci_low",
+                  "spl_diff_ci_high", "success_diff", "success_diff_ci_low", "success_diff_ci_high"]
+
+
+def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFERENCE,
+                       others: tuple[str, ...] = CLAIM_OTHERS, n_boot: int = N_BOOT, seed: int = 0,
+                       pooled: bool = True) -> "pandas.DataFrame":
+    """``reference - other`` SPL and success on the same episodes, per (level, noise) and pooled.
+
+    ``frame``: episodes as :func:`select_episodes` returns them. A pair is the reference's and
+    the other estimator's episode with equal ``(pair_condition, task_uid, seed)``
+    (:func:`with_identities`): same level, map, noise, episode config, task and simulator noise
+    stream. ``spl_diff`` is the mean over pairs of ``spl_ref - spl_other`` (so it equals the
+    difference of the two SPLs over the paired episodes, ``reference_spl - other_spl``), with a
+    BCa bootstrap interval that resamples pairs within each level
+    (:func:`~navbench.nav.metrics.stratified_bootstrap_ci`); ``success_diff`` likewise with the
+    success flags. Episodes without a partner are left out and counted (``unpaired_reference``,
+    ``unpaired_other``). ``reference`` and ``others`` are estimator names; each variant
+    (``name{options}``) of them is compared. Rows: levels sorted, then ``"all"``; noise in
+    :data:`NOISE_ORDER`; one row per comparison present (columns :data:`PAIRED_COLUMNS`).
+    """
+    import pandas as pd
+
+    if frame.empty:
+        return pd.DataFrame(columns=PAIRED_COLUMNS)
+    f = frame if "pair_condition" in frame.columns else with_identities(frame)
+    f = f.assign(variant=estimator_variants(f), success=f["success"].astype(float))
+    base = f["variant"].map(lambda v: v.split("{")[0])
+    refs = sorted(f.loc[base == reference, "variant"].unique())
+    oths = sorted(f.loc[base.isin(others), "variant"].unique(),
+                  key=lambda v: (_order_key(v.split("{")[0], ESTIMATOR_ORDER), v))
+    keys = ["pair_condition", "task_uid", "seed"]
+    cols = keys + ["level", "noise", "spl_term", "success"]
+    out = []
+    for ref in refs:
+        a = f.loc[f["variant"] == ref, cols].drop_duplicates(keys)
+        for oth in oths:
+            b = f.loc[f["variant"] == oth, cols].drop_duplicates(keys)
+            m = a.merge(b[keys + ["spl_term", "success"]], on=keys, how="outer",
+                        suffixes=("_r", "_o"), indicator=True)
+            # the other side's level/noise for episodes the reference lacks
+            lv = b.set_index(keys)[["level", "noise"]]
+            miss = m["_merge"] == "right_only"
+            if miss.any():
+                idx = pd.MultiIndex.from_frame(m.loc[miss, keys])
+                m.loc[miss, "level"] = lv.loc[idx, "level"].to_numpy()
+                m.loc[miss, "noise"] = lv.loc[idx, "noise"].to_numpy()
+            groups = [(lvl, g) for lvl, g in m.groupby("level", sort=True)]
+            if pooled:
+                groups.append(("all", m))
+            for lvl, g in groups:
+                for noise, c in g.groupby("noise", sort=False):
+                    both = c[c["_merge"] == "both"]
+                    row = {"level": lvl, "noise": noise, "comparison": f"{ref} - {oth}",
+                           "reference": ref, "other": oth, "pairs": int(len(both)),
+                           "unpaired_reference": int((c["_merge"] == "left_only").sum()),
+                           "unpaired_other": int((c["_merge"] == "right_only").sum())}
+                    row["reference_spl"] = float(both["spl_term_r"].mean()) if len(both) else np.nan
+                    row["other_spl"] = float(both["spl_term_o"].mean()) if len(both) else np.nan
+                    for name, col in (("spl_diff", "spl_term"), ("success_diff", "success")):
+                        d = (both[f"{col}_r"] - both[f"{col}_o"]).to_numpy(dtype=float)
+                        row[name] = float(np.mean(d)) if d.size else np.nan
+                        strata = [(both.loc[both["level"] == l, f"{col}_r"]
+                                   - both.loc[both["level"] == l, f"{col}_o"]).to_numpy(dtype=float)
+                                  for l in sorted(both["level"].unique())]
+                        row[f"{name}_ci_low"], row[f"{name}_ci_high"] = \
+                            stratified_bootstrap_ci(strata, CI_LEVEL, n_boot, seed)
+                    out.append(row)
+    table = pd.DataFrame(out, columns=PAIRED_COLUMNS)
+    if table.empty:
+        return table
+    key = [((r.level == "all"), r.level, _order_key(r.noise, NOISE_ORDER), r.reference,
+            _order_key(r.other.split("{")[0], ESTIMATOR_ORDER), r.other) for r in table.itertuples()]
+    order = sorted(range(len(table)), key=lambda i: key[i])
+    return table.iloc[order].reset_index(drop=True)

@@ -133,10 +133,11 @@ def test_report_embeds_every_figure_and_writes_csvs(synthetic, fake_isometric):
                          levels_dir=tmp / "levels", n_boot=200)
     assert index == out / "index.html"
     text = index.read_text()
-    assert text.count("<img ") == text.count('src="data:image/png;base64,') == 5
-    # SPL bars, RMSE CDFs, runtime bars, one level (lvB has no file), one isometric map
+    assert text.count("<img ") == text.count('src="data:image/png;base64,') == 6
+    # SPL bars, paired differences, RMSE CDFs, runtime bars, one level (lvB has no file), one
+    # isometric map
     images = _images(text)
-    assert len(images) == 5
+    assert len(images) == 6
     from PIL import Image
     import io
 
@@ -180,7 +181,7 @@ def test_report_without_optional_parts(synthetic, monkeypatch):
     monkeypatch.setitem(sys.modules, "navbench.worldmodel.plots", None)  # import fails
     index = build_report(db, tmp / "r2", levels_dir=tmp / "levels", n_boot=50)
     text = index.read_text()
-    assert len(_images(text)) == 4  # SPL, CDFs, runtime, level lvA without trajectories
+    assert len(_images(text)) == 5  # SPL, claim, CDFs, runtime, level lvA without trajectories
     assert "draw_isometric is not available" in text
     assert "No trajectory loader given" in text
 
@@ -260,7 +261,7 @@ def test_report_cli(synthetic, fake_isometric):
     assert res.exit_code == 0, res.output
     text = (out / "index.html").read_text()
     # the stage cache is empty: trajectories and the map are reported unavailable, figures remain
-    assert "unavailable" in text and len(_images(text)) == 4
+    assert "unavailable" in text and len(_images(text)) == 5
 
 
 def test_report_cli_missing_database_is_one_line(tmp_path):
@@ -301,7 +302,7 @@ def test_report_renders_in_headless_chromium(synthetic, fake_isometric):
                          levels_dir=tmp / "levels", n_boot=50)
     text = index.read_text()
     n = len(_images(text))
-    assert n == 5
+    assert n == 6
     # a copy of the page with a probe that records, after load, how many images decoded
     probe = out / "probe.html"
     probe.write_text(text.replace("</body>", CHECK_SCRIPT + "</body>"))
@@ -354,5 +355,60 @@ def test_report_from_real_records_through_the_stage_cache(tmp_path, fake_isometr
         index = build_report(db, tmp_path / "out", load_trajectory, load_map,
                              levels_dir=tmp_path / "levels", n_boot=50)
     text = index.read_text()
-    assert "1 trajectories" in text and "unavailable" not in text
+    # Fig. 3 draws the episode (task 0) over the learned planning slice of its map
+    assert "tasks 0 by every estimator" in text and "unavailable" not in text
     assert len(fake_isometric) == 1 and isinstance(fake_isometric[0], VoxelMap)
+
+
+def test_report_states_the_claim_the_failures_and_the_speed_beside_the_paper(synthetic):
+    """Issue 16's sections: paired differences per noise (with their CSV), end reasons and the
+    per-episode CSV, Fig. 4c beside the paper's figures with the conditions."""
+    db, trajs, tmp = synthetic
+    out = tmp / "r-claim"
+    text = build_report(db, out, load_trajectory=fake_loader(trajs), levels_dir=tmp / "levels",
+                        n_boot=100).read_text()
+    for anchor in ('id="claim"', 'id="failures"'):
+        assert anchor in text
+    for name in ("claim_low", "claim_high", "paired_differences", "end_reasons", "episodes",
+                 "runtime_vs_paper"):
+        assert (out / f"{name}.csv").is_file() and f'href="{name}.csv"' in text, name
+    paired = pd.read_csv(out / "paired_differences.csv")
+    # 2 levels + pooled, 2 noises, 2 comparisons; every ours episode has both partners
+    assert len(paired) == 12 and (paired["pairs"][paired["level"] != "all"] == 4).all()
+    assert (paired["unpaired_reference"] == 0).all() and (paired["unpaired_other"] == 0).all()
+    eps = pd.read_csv(out / "episodes.csv")
+    assert len(eps) == 2 * 3 * 2 * 4 and {"end_reason", "collided", "success", "task_id", "seed"} <= set(eps.columns)
+    reasons = pd.read_csv(out / "end_reasons.csv")
+    assert reasons["episodes"].sum() == len(eps) and (reasons["reached"] == reasons["episodes"]).all()
+    assert (reasons["failed"] == reasons["episodes"] - [
+        int(eps[(eps["estimator"] == e) & (eps["noise"] == n)]["success"].sum())
+        for e, n in zip(reasons["estimator"], reasons["noise"])]).all()
+    speed = pd.read_csv(out / "runtime_vs_paper.csv", index_col=0)
+    assert speed["paper (GPU)"].tolist() == [50.0, 60.0, 250.0, 62.0, 16.1]
+    assert speed.iloc[0, 0] == 4.0 and speed.iloc[3, 0] == 27.0  # ours' render and full step
+    assert "single-threaded" in text and "Quadro RTX 8000" in text
+
+
+def test_estimators_that_do_no_tracking_work_get_no_rate(tmp_path):
+    """dynamics renders and optimises nothing: no '0.0 ms (23900 Hz)' row, a note instead."""
+    db = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    rid = db.start_run("quick", "all", {}, "e" * 64)
+    rows = []
+    for t in range(3):
+        rows.append(episode("c-ours", t, estimator="ours", sim_ms=1.0, render_ms=4.0, estimate_ms=10.0,
+                            plan_ms=0.0, control_ms=0.1, step_ms=15.1))
+        rows.append(episode("c-dyn", t, estimator="dynamics", sim_ms=0.02, render_ms=0.0,
+                            estimate_ms=0.003, plan_ms=0.0, control_ms=0.02, step_ms=0.042))
+    db.add_episodes(rid, rows)
+    db.finish_run(rid)
+    out = tmp_path / "rep"
+    text = build_report(db, out, levels_dir=tmp_path / "levels", n_boot=20).read_text()
+    db.close()
+    scores = pd.read_csv(out / "scores.csv")
+    dyn = scores[scores["estimator"] == "dynamics"]
+    assert dyn["step_hz"].isna().all() and (~dyn["tracking_work"].astype(bool)).all()
+    assert scores[scores["estimator"] == "ours"]["step_hz"].notna().all()
+    runtime = pd.read_csv(out / "runtime.csv", index_col=0)
+    assert np.isnan(runtime.loc["dynamics", "step_hz"]) and runtime.loc["ours", "step_hz"] > 0
+    assert "dynamics: no per-step tracking work" in text
+    assert "23809" not in text and "23810" not in text  # 1000 / 0.042

@@ -26,6 +26,15 @@ def test_run_profile_returns_the_run_its_scores_and_report(project):
     db = ResultsDB(url)
     runs = db.runs_frame()
     assert list(runs["status"]) == ["done"] and int(runs["id"].iloc[0]) == result.run_id
+    # the page the finished run published says so (issue 16): its runs table shows it done
+    page = result.report_path.read_text()
+    assert "had not finished" not in page
+    runs_html = page.split('id="runs"')[1].split("<h2")[0]
+    assert "<td>done</td>" in runs_html and "<td>running</td>" not in runs_html
+    import pandas as pd
+
+    published = pd.read_csv(result.report_path.parent / "runs.csv")
+    assert list(published["status"]) == ["done"] and list(published["id"]) == [result.run_id]
     assert len(db.episodes_frame()) == nav.total
     # a rerun resumes: nothing new, the same table
     again = run_profile(load_profile("tiny.toml"), db=db, until="score")

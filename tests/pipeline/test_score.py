@@ -163,8 +163,18 @@ def test_cli_json_csv_table(db, tmp_path):
     runner = CliRunner()
     res = runner.invoke(app, ["score", "--format", "json", "--db", url, "--boot", "100"])
     assert res.exit_code == 0, res.output
-    data = json.loads(res.stdout)
+    doc = json.loads(res.stdout)
+    assert set(doc) == {"scores", "paired_differences"}
+    data = doc["scores"]
     assert isinstance(data, list) and len(data) == 7
+    # ours and dynamics share l1 / low / task 0 / seed 0 (the helper's rows have no condition
+    # key: they pair by level, map and noise): one pair, ours' other 3 + 2 episodes unpaired
+    (claim,) = [d for d in doc["paired_differences"] if d["level"] == "all" and d["noise"] == "low"]
+    assert claim["comparison"] == "ours - dynamics" and claim["pairs"] == 1
+    assert claim["unpaired_reference"] == 5 and claim["spl_diff"] == pytest.approx(0.9)
+    # at high noise only ours ran: no pair, its episode counted as unpaired, no difference
+    (high,) = [d for d in doc["paired_differences"] if d["level"] == "all" and d["noise"] == "high"]
+    assert high["pairs"] == 0 and high["unpaired_reference"] == 1 and high["spl_diff"] is None
     need = {"level", "estimator", "noise", "episodes", "success_rate", "spl", "spl_ci_low",
             "spl_ci_high", "loc_rmse_m", "rot_rmse_deg", "step_ms"}
     assert all(need <= set(d) for d in data)
@@ -225,3 +235,47 @@ def test_rows_that_pool_several_setups_are_counted_and_warned(db, tmp_path):
     url = f"sqlite:///{tmp_path / 'r.db'}"
     res = CliRunner().invoke(app, ["score", "--db", url, "--boot", "20"])
     assert res.exit_code == 0 and "pool episodes of several setups" in res.stderr
+
+
+def test_episodes_stored_before_condition_keys_still_score_and_pair(tmp_path):
+    """A database whose episodes table predates ``condition_key`` opens, gains the column, and
+    its rows score as before (one setup per cell) and pair by level, map and noise."""
+    import sqlite3
+
+    path = tmp_path / "old.db"
+    ResultsDB(f"sqlite:///{path}").close()
+    with sqlite3.connect(path) as con:
+        con.execute("ALTER TABLE episodes DROP COLUMN condition_key")
+    d = ResultsDB(f"sqlite:///{path}")
+    rid = d.start_run("quick", "run-navigation", {}, "a")
+    d.add_episodes(rid, [episode("c-ours", t, spl_term=0.9) for t in range(3)]
+                   + [episode("c-dyn", t, estimator="dynamics", spl_term=0.3) for t in range(3)])
+    assert d.episodes_frame()["condition_key"].isna().all()
+    from navbench.pipeline.score import score_tables
+
+    table, paired = score_tables(d, n_boot=50)
+    d.close()
+    assert set(table["setups"]) == {1} and set(table["episodes"]) == {3}
+    row = paired[paired["level"] == "all"].iloc[0]
+    assert row["pairs"] == 3 and row["spl_diff"] == pytest.approx(0.6)
+
+
+def test_a_runs_cells_keep_their_episodes_when_an_earlier_task_set_stored_some(db):
+    """--tasks 2 then --tasks 4: the second run's cell holds tasks 0..3; selecting its cells
+    keeps all four (the once-per-(setup, task, seed) rule applies after the selection), while
+    every stored episode counts tasks 0 and 1 once."""
+    from navbench.pipeline.score import select_episodes
+
+    from .test_db import FakeTask
+
+    tasks = [FakeTask(i, (0.5, 0.5 + 0.4 * i, 0.0), (2.5, 2.5 - 0.4 * i), 2.6) for i in range(4)]
+    db.record_task_set("l1", "ts2", tasks[:2])  # the first two tasks of the same stream
+    db.record_task_set("l1", "ts4", tasks)
+    r1 = db.start_run("quick", "run-navigation", {}, "a")
+    db.add_episodes(r1, [episode("small", t, task_set_key="ts2", condition_key="cond") for t in range(2)])
+    r2 = db.start_run("quick", "run-navigation", {}, "b")
+    db.add_episodes(r2, [episode("large", t, task_set_key="ts4", condition_key="cond") for t in range(4)])
+    assert len(select_episodes(db, cell_keys=["large"])) == 4
+    every = select_episodes(db)
+    assert len(every) == 4 and sorted(every["task_id"]) == [0, 1, 2, 3]
+    assert list(every.sort_values("task_id")["cell_key"]) == ["small", "small", "large", "large"]

@@ -35,10 +35,13 @@ def score(
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                            help=DB_HELP),
 ):
-    """Score the stored navigation episodes offline, with bootstrap 95% intervals.
+    """Score the stored navigation episodes offline, with 95% intervals.
 
-    One row per (level, estimator, noise) and pooled rows with level 'all'. Every stored episode
-    counts once (episodes are unique per cell, task and seed); --run narrows to one run.
+    One row per (level, estimator, noise) and pooled rows with level 'all'; then the paired
+    differences ours - no-map and ours - dynamics on the same tasks and seeds. Success: exact
+    (Clopper-Pearson) interval; SPL and differences: BCa bootstrap stratified by level. Every
+    stored episode counts once per setup, task and seed; --run narrows to one run. --format json
+    prints {"scores": [...], "paired_differences": [...]}; csv prints the score table.
     """
     import sys
 
@@ -46,17 +49,17 @@ def score(
 
     from navbench.pipeline.db import ResultsDB
     from navbench.cli._common import err_console
-    from navbench.pipeline.score import mixed_setups_warning, score_table, table_records
+    from navbench.pipeline.score import mixed_setups_warning, score_tables, table_records
 
     with ResultsDB(db, create=False) as rdb:
-        table = score_table(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
+        table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
     warning = mixed_setups_warning(table)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", markup=True)
     if fmt is Format.json:
         from navbench.cli._common import print_json
 
-        print_json(table_records(table))
+        print_json({"scores": table_records(table), "paired_differences": table_records(paired)})
         return
     if fmt is Format.csv:
         table.to_csv(sys.stdout, index=False, float_format="%.6g")
@@ -64,7 +67,8 @@ def score(
     from rich.table import Table
 
     # level, estimator and noise names come from the database: printed literally, never as markup
-    out = Table(title=f"navbench score ({escape(run)}): mean or median [95% bootstrap interval]")
+    out = Table(title=f"navbench score ({escape(run)}): mean or median [95% interval: success exact "
+                      "binomial, SPL bootstrap stratified by level, medians bootstrap]")
     for col, just in (("level", "left"), ("estimator", "left"), ("noise", "left"), ("n", "right"),
                       ("success", "right"), ("SPL", "right"), ("loc RMSE m", "right"),
                       ("rot RMSE deg", "right"), ("step ms", "right"), ("Hz", "right")):
@@ -75,14 +79,42 @@ def score(
             out.add_section()
         previous = r["level"]
         hz = "-" if r["step_hz"] != r["step_hz"] else f"{r['step_hz']:.1f}"
+        idle = not bool(r.get("tracking_work", True))  # dynamics, gt: no tracking rate to show
         out.add_row(escape(str(r["level"])), escape(str(r["estimator"])), escape(str(r["noise"])),
                     str(r["episodes"]),
                     _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
                     _fmt(r["spl"], r["spl_ci_low"], r["spl_ci_high"], 2),
                     _fmt(r["loc_rmse_m"], r["loc_rmse_m_ci_low"], r["loc_rmse_m_ci_high"], 3),
                     _fmt(r["rot_rmse_deg"], r["rot_rmse_deg_ci_low"], r["rot_rmse_deg_ci_high"], 2),
-                    _fmt(r["step_ms"], r["step_ms_ci_low"], r["step_ms_ci_high"], 1), hz)
+                    "-" if idle else _fmt(r["step_ms"], r["step_ms_ci_low"], r["step_ms_ci_high"], 1), hz)
     console.print(out)
+    if not paired.empty:
+        console.print(_paired_table(paired, escape))
+
+
+def _paired_table(paired, escape):
+    """The paper's claim: reference - other on the same tasks and seeds, one section per noise."""
+    from rich.table import Table
+
+    from navbench.pipeline.score import NOISE_ORDER, _order_key
+
+    out = Table(title="paired differences on the same (task, seed): mean [95% bootstrap interval, "
+                      "stratified by level]")
+    for col, just in (("noise", "left"), ("level", "left"), ("comparison", "left"), ("pairs", "right"),
+                      ("unpaired", "right"), ("SPL ref / other", "right"), ("SPL diff", "right"),
+                      ("success diff", "right")):
+        out.add_column(col, justify=just)
+    noises = sorted(paired["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER))
+    for i, noise in enumerate(noises):
+        if i:
+            out.add_section()
+        for _, r in paired[paired["noise"] == noise].iterrows():
+            both = f"{r['reference_spl']:.2f} / {r['other_spl']:.2f}" if r["pairs"] else "-"
+            out.add_row(escape(str(noise)), escape(str(r["level"])), escape(str(r["comparison"])),
+                        str(r["pairs"]), f"{r['unpaired_reference']} / {r['unpaired_other']}", both,
+                        _fmt(r["spl_diff"], r["spl_diff_ci_low"], r["spl_diff_ci_high"], 3),
+                        _fmt(r["success_diff"], r["success_diff_ci_low"], r["success_diff_ci_high"], 3))
+    return out
 
 
 def register(app: typer.Typer) -> None:

@@ -83,7 +83,8 @@ def episode_row_from_score(cell_key: str, meta: dict, score: Any, traj_key: str 
 
     ``meta``: ``level, map_key, task_set_key, estimator, estimator_options (dict), noise, seed,
     task_id, timings_ms`` (component name of :data:`~navbench.nav.timing.TIMING_KEYS` -> (T,)
-    per-step milliseconds). ``score`` is a :class:`navbench.nav.metrics.EpisodeScore` (success,
+    per-step milliseconds), optionally ``condition_key`` (the cell's key without task set and
+    estimator, :func:`navbench.pipeline.stages.grid.make_cells`). ``score`` is a :class:`navbench.nav.metrics.EpisodeScore` (success,
     path_length, optimal_length, spl_term, loc_rmse_m, rot_rmse_deg, steps, end_reason,
     collided). Timings are stored as per-component medians; ``step_ms`` is the median over steps
     of the per-step sum of all components (or the sum of the medians when their lengths differ).
@@ -110,6 +111,8 @@ def episode_row_from_score(cell_key: str, meta: dict, score: Any, traj_key: str 
         "rot_rmse_deg": score.rot_rmse_deg,
         "traj_key": traj_key,
     }
+    if meta.get("condition_key") is not None:
+        row["condition_key"] = str(meta["condition_key"])
     for name, column in zip(TIMING_KEYS, TIMING_COLUMNS):
         row[column] = _median(timings[name]) if name in timings else None
     arrays = [np.asarray(v, dtype=float).ravel() for v in timings.values()]

@@ -70,7 +70,7 @@ class Run(Base):
 
 
 #: Nullable columns added to a version-1 layout after it shipped: (table, column).
-_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"))
+_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"), ("episodes", "condition_key"))
 #: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
 _PG_SCHEMA_LOCK = 0x6E617662656E6368
 
@@ -157,6 +157,11 @@ class EpisodeRow(Base):
     step_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # median of per-step sums
     traj_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
     recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    # added within schema version 1 (issue 16): the cell's key without the task set and the
+    # estimator (level, map, noise, episode config); NULL in rows stored before it. Scoring
+    # counts a (task, seed) once per (condition, estimator) whatever task set it came from,
+    # and pairs estimators on the same (condition, task, seed).
+    condition_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
 
 
 class TrackingRow(Base):
@@ -204,6 +209,7 @@ _EPISODE_FIELDS = (
     "cell_key", "level", "map_key", "task_set_key", "task_id", "estimator", "estimator_options",
     "noise", "seed", "success", "spl_term", "path_length", "optimal_length", "steps", "end_reason",
     "collided", "loc_rmse_m", "rot_rmse_deg", *TIMING_COLUMNS, "step_ms", "traj_key",
+    "condition_key",
 )
 _EPISODE_REQUIRED = (
     "cell_key", "level", "task_id", "estimator", "noise", "seed", "success", "spl_term",

@@ -47,6 +47,10 @@ class Cell:
     noise: str
     episode: dict          # EpisodeConfig overrides (the key hashes the resolved config)
     key: str
+    # the key without task set and estimator (level, map, noise, resolved episode config): the
+    # episodes of one condition are comparable across task sets (a larger --tasks extends them)
+    # and across estimators (paired on the same task and seed); not part of ``key``
+    condition_key: str = ""
 
 
 @dataclass(frozen=True)
@@ -106,13 +110,15 @@ def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
     cells = []
     for li in inputs:
         for noise in cfg.noise:
+            condition = config_hash({"level": li.level.key, "map_key": li.map.key, "noise": noise,
+                                     "episode": episode})
             for est in cfg.estimators:
                 options = dict(cfg.estimator_options.get(est, {}))
                 key = config_hash({"level": li.level.key, "map_key": li.map.key, "task_set_key": li.tasks.key,
                                    "estimator": est, "estimator_options": options, "noise": noise,
                                    "episode": episode})
                 cells.append(Cell(li.level.name, li.level.key, li.map.key, li.tasks.key, est, options,
-                                  noise, dict(cfg.episode), key))
+                                  noise, dict(cfg.episode), key, condition))
     return cells
 
 

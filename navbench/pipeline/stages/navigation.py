@@ -40,7 +40,7 @@ def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str) -> dict:
             "estimator": c.estimator, "estimator_options": c.options, "noise": c.noise,
             "seed": job.seed, "task_id": job.task_id,
             "timings_ms": record.timings_ms or {}, "end_reason": record.end_reason,
-            "collided": record.collided}
+            "collided": record.collided, "condition_key": c.condition_key or None}
     return episode_row_from_score(c.key, meta, score, traj_key)
 
 

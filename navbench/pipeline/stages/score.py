@@ -26,9 +26,7 @@ def score_stage(ctx: StageContext, cells: list[Cell]) -> Ref:
     def compute(d: Path) -> None:
         from navbench.pipeline.score import select_episodes, summarise
 
-        frame = select_episodes(ctx.db, level=levels)
-        if not frame.empty:
-            frame = frame[frame["cell_key"].isin(cell_keys)]
+        frame = select_episodes(ctx.db, level=levels, cell_keys=cell_keys)
         summarise(frame).to_csv(d / SCORE_FILE, index=False)
 
     cell_keys = sorted(c.key for c in cells)
