@@ -156,10 +156,8 @@ def quantise_pose(pose, mode: str) -> np.ndarray:
 
     ``mode``: ``"off"`` (a copy), ``"round"`` (nearest; halves to even, as Python's ``round``)
     or ``"truncate"`` (towards minus infinity, a stored grid value staying where it is). Returns ``(3,)`` float64 ``(x, y, theta)`` with
-    ``theta`` in radians wrapped to ``[-pi, pi)`` (:func:`navbench.geometry.wrap_angle`).
+    ``theta = math.radians(k)`` for the whole degree ``k`` in ``[-180, 180)`` (so in ``[-pi, pi)``).
     """
-    from navbench.geometry import wrap_angle
-
     x, y, a = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
     if mode == "off":
         return np.array([x, y, a], dtype=np.float64)
@@ -171,4 +169,5 @@ def quantise_pose(pose, mode: str) -> np.ndarray:
     else:  # radians(k) -> degrees may come back a hair below k
         deg_q = math.floor(deg + _DEG_SNAP) % 360
     xq, yq = (_centi(v, mode) for v in (x, y))
-    return np.array([xq, yq, float(wrap_angle(math.radians(deg_q)))], dtype=np.float64)
+    signed = deg_q - 360 if deg_q >= 180 else deg_q  # whole degrees in [-180, 180)
+    return np.array([xq, yq, math.radians(signed)], dtype=np.float64)
