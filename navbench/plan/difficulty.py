@@ -6,12 +6,15 @@ Per task (start ``a``, target ``b``, its shortest feasible path ``l``, :mod:`nav
     ``l / |b - a|``: 1 for a straight walk, larger for detours through doors and around obstacles.
 ``narrowest_passage`` (m)
     The narrowest passage the shortest path goes through: the minimum over points ``p`` of the
-    path (sampled every ``path_step``) of the *chord width* at ``p``, the shortest free chord
-    through ``p`` over ``directions`` directions in ``[0, pi)``: ``w(p) = min_d t(p, d) +
-    t(p, -d)`` with ``t`` the exact distance along the ray to the first solid edge (or the
-    level's box). In a doorway the chord along the wall is the door's width; between a box and a
-    wall it is the gap. Directions every ``pi / directions`` overestimate a straight passage's
-    width by at most ``1 / cos(pi / (2 directions))`` (1.004 for 18).
+    path (sampled every ``path_step``, leaving out the first and last ``end_margin`` metres of
+    path, where a chord would cut the corner of the room the task starts or ends in) of the
+    *cross width* at ``p``: the shortest free chord through ``p`` across the path, ``w(p) =
+    min_d t(p, d) + t(p, -d)`` over directions ``d`` within ``cross_spread`` (30 deg) of the
+    path's normal, every ``cross_step`` (5 deg), with ``t`` the exact distance along the ray
+    to the first solid edge (or the level's box). A path crossing a doorway at up to 30 deg
+    from square measures the door's width (in its plane, to 0.4 % with 5 deg steps); passing
+    between a box and a wall, the gap; in a corridor, its width; in a room, the room.
+    A path shorter than ``2 end_margin`` is measured at its midpoint.
 ``length`` (m) and ``min_steps``
     ``l`` and ``ceil(l / MAX_STEP)``: the fewest controls that cover the path (turns not counted).
 
@@ -89,24 +92,50 @@ def ray_distances(points, dirs, starts, ends) -> np.ndarray:
     return np.where(hit, t, np.inf).min(axis=2)
 
 
-def chord_widths(points, starts, ends, directions: int = 18) -> np.ndarray:
-    """``(P,)`` the shortest free chord through each point over ``directions`` directions in
-    ``[0, pi)`` (m): ``min_d t(p, d) + t(p, -d)``."""
-    ang = np.arange(directions) * (math.pi / directions)
-    dirs = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    both = np.concatenate([dirs, -dirs])
-    t = ray_distances(points, both, starts, ends)
-    return (t[:, :directions] + t[:, directions:]).min(axis=1)
+def cross_widths(points, headings, starts, ends, spread: float = math.radians(30.0),
+                 step: float = math.radians(5.0)) -> np.ndarray:
+    """``(P,)`` the shortest free chord through each point (m), over the directions within
+    ``spread`` of the normal to its path heading (rad), every ``step``: ``min_d t(p, d) + t(p, -d)``."""
+    k = int(math.floor(spread / step + 1e-9))
+    offsets = np.arange(-k, k + 1) * step
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    out = np.empty(len(pts))
+    for i, (p, h) in enumerate(zip(pts, np.asarray(headings, dtype=np.float64).reshape(-1))):
+        ang = h + math.pi / 2 + offsets
+        dirs = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        t = ray_distances(p[None], np.concatenate([dirs, -dirs]), starts, ends)[0]
+        out[i] = float((t[:len(dirs)] + t[len(dirs):]).min())
+    return out
 
 
-def sample_polyline(path, step: float) -> np.ndarray:
-    """Points every at most ``step`` (m) along the polyline ``path (K, 2)``, both ends included."""
+def sample_polyline(path, step: float, end_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Points every at most ``step`` (m) along the polyline ``path (K, 2)``, with the heading (rad)
+    of the segment each lies on: ``(points (P, 2), headings (P,))``. Points closer than
+    ``end_margin`` (m, along the path) to either end are left out; when that leaves none, the
+    path's midpoint is returned."""
     path = np.asarray(path, dtype=np.float64).reshape(-1, 2)
-    out = [path[:1]]
-    for a, b in zip(path[:-1], path[1:]):
-        n = max(1, math.ceil(float(np.linalg.norm(b - a)) / step))
-        out.append(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
-    return np.concatenate(out)
+    seg = np.diff(path, axis=0)
+    lengths = np.linalg.norm(seg, axis=1)
+    total = float(lengths.sum())
+    pts, heads, at = [], [], []
+    s0 = 0.0
+    for a, d, ln in zip(path[:-1], seg, lengths):
+        if ln == 0.0:
+            continue
+        n = max(1, math.ceil(ln / step))
+        f = np.arange(0, n + 1) / n
+        pts.append(a + d * f[:, None])
+        heads.append(np.full(n + 1, math.atan2(d[1], d[0])))
+        at.append(s0 + ln * f)
+        s0 += ln
+    if not pts:
+        return path[:1].copy(), np.zeros(1)
+    pts_a, heads_a, at_a = np.concatenate(pts), np.concatenate(heads), np.concatenate(at)
+    keep = (at_a >= end_margin - 1e-12) & (at_a <= total - end_margin + 1e-12)
+    if not keep.any():
+        keep = np.zeros(len(at_a), bool)
+        keep[int(np.argmin(np.abs(at_a - total / 2)))] = True
+    return pts_a[keep], heads_a[keep]
 
 
 def free_space_clearance(level, starts, resolution: float = 0.05,
@@ -136,7 +165,8 @@ def free_space_clearance(level, starts, resolution: float = 0.05,
     return float(c.mean()), float(np.mean(c >= MIN_CLEARANCE))
 
 
-def level_difficulty(level, tasks, path_step: float = 0.05, directions: int = 18,
+def level_difficulty(level, tasks, path_step: float = 0.05, end_margin: float = 0.5,
+                     cross_spread: float = math.radians(30.0), cross_step: float = math.radians(5.0),
                      resolution: float = 0.05, radius: float = AGENT_RADIUS) -> LevelDifficulty:
     """The measures of the module doc for ``level`` and its ``tasks`` (:class:`navbench.plan.tasks.Task`)."""
     from navbench.plan.shortest import graph_for_level, shortest_path
@@ -152,7 +182,8 @@ def level_difficulty(level, tasks, path_step: float = 0.05, directions: int = 18
         ids.append(int(t.id))
         length.append(l)
         ratio.append(l / float(np.linalg.norm(b - a)))
-        narrow.append(float(chord_widths(sample_polyline(path, path_step), starts, ends, directions).min()))
+        pts, heads = sample_polyline(path, path_step, end_margin)
+        narrow.append(float(cross_widths(pts, heads, starts, ends, cross_spread, cross_step).min()))
     length_a = np.asarray(length, dtype=np.float64)
     clearance, planner_free = free_space_clearance(level, [t.start[:2] for t in tasks], resolution, radius)
     return LevelDifficulty(level.name, np.asarray(ids, dtype=np.int64), np.asarray(ratio), np.asarray(narrow),
