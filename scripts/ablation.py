@@ -78,7 +78,7 @@ def settings_of(args) -> list[tuple[str, dict]]:
     from navbench.sim.conditions import parse_condition_args
 
     base = parse_condition_args(args.base, "--base")
-    out = [("baseline", dict(base))]
+    out = [("baseline" if not base else "base:" + ",".join(f"{k}={v}" for k, v in base.items()), dict(base))]
     chosen = parse_condition_args(args.condition, "--condition")
     for name, value in chosen.items():
         out.append((f"{name}={value}", {**base, name: value}))
@@ -157,6 +157,32 @@ def print_table(rows, estimators) -> None:
           "(level, task, seed)")
 
 
+def per_level_rows(label: str, frame, estimators) -> list[dict]:
+    """Per (noise, level): each estimator's SPL (for the difficulty comparison)."""
+    out = []
+    for (noise, level), g in frame.groupby(["noise", "level"], sort=True):
+        row = {"setting": label, "noise": noise, "level": level}
+        for e in estimators:
+            f = g[g["estimator"] == e]
+            row[e] = float(f["spl_term"].mean()) if len(f) else float("nan")
+        out.append(row)
+    return out
+
+
+def print_per_level(rows, estimators, difficulty) -> None:
+    """Per-level SPL beside the level's difficulty measures (navbench.plan.difficulty)."""
+    print("\nper level: SPL, and the level's difficulty (geo/eucl: mean shortest / straight task "
+          "distance; door: median narrowest width across the shortest paths, m)")
+    print("  ".join(["setting".ljust(24), "noise", "level".ljust(8)] + [e.rjust(8) for e in estimators]
+                    + ["geo/eucl", "door"]))
+    for r in rows:
+        d = difficulty.get(r["level"], {})
+        print("  ".join([r["setting"].ljust(24), r["noise"].ljust(5), r["level"].ljust(8)]
+                        + [f"{r[e]:8.3f}" for e in estimators]
+                        + [f"{d.get('geodesic_ratio', float('nan')):8.3f}",
+                           f"{d.get('narrowest_passage_median', float('nan')):5.2f}"]))
+
+
 def main(argv=None) -> int:
     from navbench.errors import NavbenchError
 
@@ -176,12 +202,32 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=0, help="worker processes (0 = CPU count)")
     ap.add_argument("--db", default="sqlite:///results/ablation.db", help="results database URL")
     ap.add_argument("--csv", help="also write the rows to this CSV file")
+    ap.add_argument("--per-level", action="store_true",
+                    help="also print each level's SPL beside its difficulty measures")
     args = ap.parse_args(argv)
     try:
         return _run(args)
     except NavbenchError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+
+
+def difficulty_of(prof) -> dict:
+    """``{level: summary}`` of :func:`navbench.plan.difficulty.level_difficulty` on the levels'
+    committed task files (the first ``prof.tasks`` tasks)."""
+    from navbench.errors import NavbenchError
+    from navbench.levelio import resolve_level
+    from navbench.plan.difficulty import level_difficulty
+    from navbench.plan.tasks import find_task_file, load_tasks
+
+    out = {}
+    for name in prof.levels:
+        try:
+            level = resolve_level(name)
+            out[name] = level_difficulty(level, load_tasks(find_task_file(name))[:prof.tasks]).summary()
+        except NavbenchError:
+            continue  # a generated level without a committed task file: no measures
+    return out
 
 
 def _run(args) -> int:
@@ -195,17 +241,20 @@ def _run(args) -> int:
                     estimators=lst(args.estimators), tasks=args.tasks, map_source=args.map_source)
     settings = settings_of(args)
     estimators = list(prof.estimators)
-    rows = []
+    rows, level_rows = [], []
     with open_db(args.db) as db:
         base = None
         for label, conditions in settings:
             frame = run_setting(prof, conditions, db, args)
             rows += rows_of(label, frame, base, estimators)
+            level_rows += per_level_rows(label, frame, estimators)
             if base is None:
                 base = frame
     print(f"profile {prof.name}: levels {','.join(prof.levels)}; noise {','.join(prof.noise)}; "
           f"{prof.tasks} tasks x {prof.seeds} seeds; map {prof.map_source}; db {args.db}")
     print_table(rows, estimators)
+    if args.per_level:
+        print_per_level(level_rows, estimators, difficulty_of(prof))
     if args.csv:
         import pandas as pd
 
