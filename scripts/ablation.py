@@ -79,10 +79,13 @@ def settings_of(args) -> list[tuple[str, dict]]:
 
     base = parse_condition_args(args.base, "--base")
     out = [("baseline" if not base else "base:" + ",".join(f"{k}={v}" for k, v in base.items()), dict(base))]
-    chosen = parse_condition_args(args.condition, "--condition")
-    for name, value in chosen.items():
-        out.append((f"{name}={value}", {**base, name: value}))
-    if args.all_on and len(chosen) > 1:
+    chosen: dict[str, str] = {}
+    for item in args.condition:  # one setting per item: a name may come with several values
+        (name, value), = parse_condition_args([item], "--condition").items()
+        if (f"{name}={value}", {**base, name: value}) not in out:
+            out.append((f"{name}={value}", {**base, name: value}))
+        chosen[name] = value
+    if args.all_on and len(args.condition) > 1:  # a name given twice: its last value
         out.append(("all", {**base, **chosen}))
     return out
 
@@ -195,10 +198,12 @@ def main(argv=None) -> int:
     ap.add_argument("--tasks", type=int, help="tasks per level (default: the profile's)")
     ap.add_argument("--map", dest="map_source", help="fit, true or a map file (default: the profile's)")
     ap.add_argument("--condition", action="append", default=[], metavar="NAME=VALUE",
-                    help="a condition to switch on against the baseline (repeatable)")
+                    help="a condition to switch on against the baseline (repeatable; a name may "
+                    "come with several values, each its own setting)")
     ap.add_argument("--base", action="append", default=[], metavar="NAME=VALUE",
                     help="a condition of the baseline itself (repeatable; default: every default)")
-    ap.add_argument("--all-on", action="store_true", help="also run all --condition values together")
+    ap.add_argument("--all-on", action="store_true", help="also run all --condition values together "
+                    "(the last value of a name given twice)")
     ap.add_argument("--workers", type=int, default=0, help="worker processes (0 = CPU count)")
     ap.add_argument("--db", default="sqlite:///results/ablation.db", help="results database URL")
     ap.add_argument("--csv", help="also write the rows to this CSV file")
