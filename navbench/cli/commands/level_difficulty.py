@@ -5,15 +5,16 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, print_json
+from navbench.cli._help import default
 
 
 def register(app: typer.Typer) -> None:
     @app.command("level-difficulty")
     def level_difficulty_cmd(
         levels: list[str] = typer.Argument(None, help="Level names (levels/NAME.json) or level files "
-                                           "[default: every level with a task file in tasks/]."),
+                                           f"{default('every level with a task file in tasks/')}."),
         count: int = typer.Option(None, "--count", min=1, help="Use the first COUNT tasks of each task "
-                                  "file [default: all]."),
+                                  f"file {default('all')}."),
         as_json: bool = typer.Option(False, "--json", help="Print the rows as JSON."),
     ):
         """Per level: mean geodesic / Euclidean task distance, the narrowest passage on the shortest

@@ -32,7 +32,7 @@ def register(app: typer.Typer) -> None:
         condition: list[str] = typer.Option(None, "--condition", metavar="NAME=VALUE", help="A simulator "
                                             "condition of the paper, repeatable: pose_quantisation=off|round|"
                                             "truncate, direction_limit=believed|true, collision_check=swept|"
-                                            "endpoint (overrides the profile's [conditions])."),
+                                            "endpoint (overrides the profile's \\[conditions] table)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile")),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                                help=DB_HELP),
