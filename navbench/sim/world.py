@@ -27,7 +27,7 @@ import numpy as np
 from navbench.errors import TaskError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, wrap_angle
 from navbench.level import Level, distance_to_solids, prisms
-from navbench.sim.conditions import quantise_pose
+from navbench.sim.conditions import check_condition, quantise_pose
 from navbench.sim.dynamics import Control, apply_dynamics, as_control, clip_control, draw_noise, resolve_noise
 
 #: Distance (m) a blocked move is backed off from the exact contact point.
@@ -139,8 +139,6 @@ class Simulator:
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
                  enforce_direction_limit: bool = False, pose_quantisation: str = "off",
                  collision_check: str = "swept"):
-        from navbench.sim.conditions import check_condition
-
         self.level = level
         self.enforce_direction_limit = bool(enforce_direction_limit)
         self.pose_quantisation = check_condition("pose_quantisation", pose_quantisation, "Simulator")
@@ -210,7 +208,11 @@ class Simulator:
         return StepResult(self.pose.copy(), self.collided, self.observe(), eps)
 
     def _overlaps(self, xy) -> bool:
-        """Whether the agent's disc at ``xy`` overlaps a solid or the level's boundary."""
+        """Whether the agent's disc at ``xy`` overlaps a solid or the level's boundary (or lies
+        outside the level: a teleport may jump past a wall, never out of the level)."""
+        x, y = float(xy[0]), float(xy[1])
+        if not (0.0 < x < self.level.width and 0.0 < y < self.level.depth):
+            return True
         return self.world._near_clearance(xy) < self.world.radius
 
     def observe(self) -> Frame | None:

@@ -10,6 +10,7 @@ import pytest
 from navbench.errors import ConfigError
 from navbench.sim.conditions import (CONDITIONS, conditions_to_episode, episode_conditions, merge_conditions,
                                      parse_condition_args, quantise_pose)
+from navbench.geometry import AGENT_RADIUS
 from navbench.sim.dynamics import Control
 from navbench.sim.world import Simulator
 
@@ -130,3 +131,13 @@ def test_condition_names_values_and_errors():
     assert episode_conditions({"body_fixed_drive": True})["direction_limit"] == "true"
     with pytest.raises(ConfigError, match="Simulator: condition pose_quantisation"):
         Simulator(single_wall(), "none", intrinsics=None, pose_quantisation="yes")
+
+
+def test_endpoint_teleport_out_of_the_level_is_a_collision():
+    """A noisy step long enough to land beyond the boundary's reach (sigma_s = 1 m) collides."""
+    seed = next(k for k in range(100) if np.random.default_rng(k).standard_normal(2)[1] > 1.0)
+    step = 0.16 + np.random.default_rng(seed).standard_normal(2)[1]
+    sim = Simulator(single_wall(), (0.0, 1.0), seed=seed, intrinsics=None, collision_check="endpoint")
+    sim.reset((0.12, 5.0, math.pi))
+    res = sim.step(Control(0.0, math.pi, 0.16))
+    assert res.pose[0] == pytest.approx(0.12 - step) and res.pose[0] < -AGENT_RADIUS and res.collided
