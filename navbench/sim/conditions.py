@@ -155,8 +155,9 @@ def quantise_pose(pose, mode: str) -> np.ndarray:
     """ViZDoom's pose quantisation: heading to whole degrees in ``[0, 360)``, location to 0.01 m.
 
     ``mode``: ``"off"`` (a copy), ``"round"`` (nearest; halves to even, as Python's ``round``)
-    or ``"truncate"`` (towards minus infinity, a stored grid value staying where it is). Returns ``(3,)`` float64 ``(x, y, theta)`` with
-    ``theta = math.radians(k)`` for the whole degree ``k`` in ``[-180, 180)`` (so in ``[-pi, pi)``).
+    or ``"truncate"`` (towards minus infinity, a stored grid value staying where it is).
+    Returns ``(3,)`` float64 ``(x, y, theta)`` with ``theta = math.radians(k)`` for the whole
+    degree ``k`` in ``[-180, 180)`` (so in ``[-pi, pi)``).
     """
     x, y, a = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
     if mode == "off":
