@@ -59,3 +59,20 @@ def test_level_difficulty_prints_the_measures(project):
     assert rows[0]["geodesic_ratio"] >= 1.0 and 0 < rows[0]["planner_free"] <= 1
     table = nb("level-difficulty", "tiny", "--count", "2")
     assert table.code == 0 and table.out.splitlines()[1].split()[:2] == ["tiny", "2"]
+
+
+def test_run_navigation_names_the_conditions_it_ran(project):
+    """A condition set on the command line reaches the episodes and is printed with the result."""
+    res = nb("run-navigation", "--profile", "tiny.toml", "--map", "true", "--estimators", "gt",
+             "--tasks", "1", "--condition", "pose_quantisation=round")
+    assert res.code == 0, res.output
+    assert "conditions: pose_quantisation=round" in res.out
+    import math
+
+    from navbench.pipeline.artifacts import TRAJ_FILE, load_record
+
+    poses = [load_record(p).true_poses for p in (project / "results" / "cache").rglob(TRAJ_FILE)]
+    assert poses, "no episode record stored"
+    for x, y, a in poses[0]:  # on ViZDoom's grid: 0.01 m and whole degrees
+        assert abs(x * 100 - round(x * 100)) < 1e-9 and abs(y * 100 - round(y * 100)) < 1e-9
+        assert a == math.radians(round(math.degrees(a)))

@@ -47,6 +47,7 @@ def register(app: typer.Typer) -> None:
                           f"{r['length']:>7.2f} {r['min_steps']:>6.1f} {r['free_clearance']:>6.2f} "
                           f"{100 * r['planner_free']:>6.1f}", markup=False)
         console.print("geo/eucl: shortest path / straight line; door: narrowest width across the "
-                      "shortest path, its first and last 0.5 m left out (m); length (m) and steps (ceil(length / 0.8 L)): the shortest path; clear: mean "
-                      "clearance of the reachable free space (m); plan%: its share >= 1.2 L from solids",
+                      "shortest path, its first and last 0.5 m left out (m); length (m) and steps "
+                      "(ceil(length / 0.8 L)): the shortest path; clear: mean clearance of the "
+                      "reachable free space (m); plan%: its share >= 1.2 L from solids",
                       markup=False, soft_wrap=True)

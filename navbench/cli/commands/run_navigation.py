@@ -47,7 +47,8 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import command_line, run_with_ui
         from navbench.pipeline.profiles import load_profile, override
         from navbench.pipeline.run import run_profile
-        from navbench.sim.conditions import conditions_to_episode, parse_condition_args
+        from navbench.sim.conditions import (CONDITIONS, conditions_to_episode, episode_conditions,
+                                             parse_condition_args)
 
         # an option given but empty (--estimators ',,') is an error, not the profile's list
         prof = override(load_profile(profile), levels=levels or None,
@@ -64,3 +65,6 @@ def register(app: typer.Typer) -> None:
         summary = result.navigation
         console.print(f"stored {summary.stored} new episodes; {summary.already_done + summary.stored}"
                       f"/{summary.total} of the grid are in the database")
+        changed = {k: v for k, v in episode_conditions(prof.episode).items() if v != CONDITIONS[k].default}
+        if changed:
+            console.print("conditions: " + ", ".join(f"{k}={v}" for k, v in changed.items()), markup=False)
