@@ -56,6 +56,12 @@ class EpisodeConfig:
     # agent moves along the direction it commands, which it keeps within 5 deg of its ESTIMATED
     # heading (see navbench.sim.world.Simulator)
     body_fixed_drive: bool = False
+    # ViZDoom's pose quantisation ("off" | "round" | "truncate") and appendix D's collision check
+    # ("swept" | "endpoint"): the simulator conditions of navbench.sim.conditions (the condition
+    # direction_limit is body_fixed_drive). At "off" / "swept" they are left out of the episode
+    # key (navbench.sim.conditions.KEY_NEUTRAL_FIELDS), so earlier keys stay valid
+    pose_quantisation: str = "off"
+    collision_check: str = "swept"
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
 
@@ -103,12 +109,17 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
     :class:`navbench.track.base.Estimator`. ``planner_map`` (optional, from
     :func:`navbench.plan.astar.make_planner_map`) skips the per-map cache; its own config is used.
     """
+    from navbench.sim.conditions import KEY_NEUTRAL_FIELDS
     from navbench.sim.dynamics import clip_control
 
     drive = simulator.enforce_direction_limit
     if bool(drive) != config.body_fixed_drive:
         raise ConfigError(f"the simulator's enforce_direction_limit={bool(drive)} disagrees with "
                           f"EpisodeConfig.body_fixed_drive={config.body_fixed_drive}")
+    for name, neutral in KEY_NEUTRAL_FIELDS.items():
+        if getattr(simulator, name, neutral) != getattr(config, name):
+            raise ConfigError(f"the simulator's {name}={getattr(simulator, name, None)!r} disagrees with "
+                              f"EpisodeConfig.{name}={getattr(config, name)!r}")
     pm = planner_map if planner_map is not None else cached_planner_map(occ2d, xs, ys, config.planner)
     start = np.asarray(task.start, dtype=np.float64).reshape(3)
     target = np.asarray(task.target, dtype=np.float64).reshape(2)

@@ -14,6 +14,8 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
                   and optional
                   [navigation.episode] (EpisodeConfig fields) and
                   [navigation.options.<estimator>] (estimator keyword arguments)
+    [conditions]  the paper's simulator conditions by name (navbench.sim.conditions), e.g.
+                  pose_quantisation = "round"; they set [navigation.episode] fields
 
 Unknown keys are errors (a typo must not silently fall back to a default). Every field is
 checked for its type and range when the profile is loaded and again after CLI overrides, so a
@@ -203,6 +205,7 @@ EPISODE_RANGES: dict[str, Any] = {
     "planner.max_expansions": _int(1, 100_000_000),
     "controller.heading_threshold": _pos(), "controller.waypoint_tolerance": _pos(),
     "controller.lookahead": _int(1, 100_000), "controller.max_turn": _pos(), "controller.max_step": _pos(),
+    "pose_quantisation": ("off", "round", "truncate"), "collision_check": ("swept", "endpoint"),
 }
 #: Ranges of estimator options (TrackerConfig of ours/no-map, EmissionConfig of emission).
 OPTION_RANGES: dict[str, Any] = {
@@ -465,6 +468,7 @@ _SECTIONS: dict[str, dict[str, str]] = {
     "navigation": {"estimators": "estimators", "noise": "noise", "seeds": "seeds",
                    "workers": "workers", "map": "map_source", "episode": "episode",
                    "options": "estimator_options"},
+    "conditions": {},  # navbench.sim.conditions: set into [navigation.episode] on loading
 }
 
 
@@ -481,6 +485,9 @@ def profile_from_dict(doc: dict[str, Any], source: str = "<profile>") -> Profile
                 if key == "fit" and k not in _SECTIONS["fit"]:
                     fit_extra[k] = v
                     continue
+                if key == "conditions":
+                    kw.setdefault("conditions", {})[k] = v
+                    continue
                 if k not in _SECTIONS[key]:
                     raise ConfigError(f"{source}: unknown key {key}.{k}")
                 kw[_SECTIONS[key][k]] = v
@@ -490,6 +497,11 @@ def profile_from_dict(doc: dict[str, Any], source: str = "<profile>") -> Profile
             raise ConfigError(f"{source}: unknown key {key!r}")
     if "name" not in kw:
         raise ConfigError(f"{source}: missing 'name'")
+    if "conditions" in kw:  # [conditions] NAME = "VALUE": EpisodeConfig fields by their paper names
+        from navbench.sim.conditions import merge_conditions
+
+        check_field("episode", kw.get("episode", {}), source)
+        kw["episode"] = merge_conditions(kw.get("episode", {}), kw.pop("conditions"), f"{source}: [conditions]")
     kw["fit"] = fit_extra
     for fname, value in kw.items():  # in file order, each message naming the file and field
         check_field(fname, value, source)

@@ -50,7 +50,8 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
         ep_cfg = build_episode_config(c.episode)
         frames = uses_frames(c.estimator)  # estimators that never look at frames skip rendering
         sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
-                        camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive)
+                        camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
+                        pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check)
         est = make_estimator(c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT,
                              renderer=None, seed=job.estimator_seed, **c.options)
         record = run_episode(level, occ2d, xs, ys, tasks[job.task_id], est, sim, config=ep_cfg)

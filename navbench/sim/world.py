@@ -27,6 +27,7 @@ import numpy as np
 from navbench.errors import TaskError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, wrap_angle
 from navbench.level import Level, distance_to_solids, prisms
+from navbench.sim.conditions import check_condition, quantise_pose
 from navbench.sim.dynamics import Control, apply_dynamics, as_control, clip_control, draw_noise, resolve_noise
 
 #: Distance (m) a blocked move is backed off from the exact contact point.
@@ -125,13 +126,23 @@ class Simulator:
     ``enforce_direction_limit=True`` also clips ``o`` to within 5 deg of the TRUE heading
     (a body-fixed drive: a heading error of ``d`` then bends every step by ``|d| - 5 deg``);
     this was the default before and halves the ``dynamics`` baseline's SPL.
+
+    The paper's other simulator conditions (:mod:`navbench.sim.conditions`):
+    ``pose_quantisation`` (``"off"``, ``"round"``, ``"truncate"``) quantises the pose after every
+    step and at reset as ViZDoom does (whole degrees, 0.01 m); the quantised pose is the truth
+    from then on, and a quantised position whose disc overlaps a solid counts as a collision.
+    ``collision_check="endpoint"`` replaces the swept disc by appendix D's check at the end of
+    the move: the agent is teleported there and has collided when its disc overlaps a solid.
     """
 
     def __init__(self, level: Level, noise="none", seed: int = 0,
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
-                 enforce_direction_limit: bool = False):
+                 enforce_direction_limit: bool = False, pose_quantisation: str = "off",
+                 collision_check: str = "swept"):
         self.level = level
         self.enforce_direction_limit = bool(enforce_direction_limit)
+        self.pose_quantisation = check_condition("pose_quantisation", pose_quantisation, "Simulator")
+        self.collision_check = check_condition("collision_check", collision_check, "Simulator")
         self.noise = noise if isinstance(noise, str) else tuple(float(v) for v in noise)
         self.sigmas = resolve_noise(noise)
         self.seed = seed
@@ -165,6 +176,8 @@ class Simulator:
             self.seed = seed
             self.rng = np.random.default_rng(seed)
         self.pose = np.array([p[0], p[1], float(wrap_angle(p[2]))])
+        if self.pose_quantisation != "off":
+            self.pose = quantise_pose(self.pose, self.pose_quantisation)
         self.collided = False
         self.collision_step = -1
         self.steps = 0
@@ -180,13 +193,27 @@ class Simulator:
         self.last_control = u
         if not self.collided:
             nxt = apply_dynamics(self.pose, u, eps[0], eps[1])
-            xy, hit = self.world.sweep(self.pose[:2], nxt[:2])
+            if self.collision_check == "endpoint":  # teleport, then a distance check (appendix D)
+                xy, hit = nxt[:2], self._overlaps(nxt[:2])
+            else:
+                xy, hit = self.world.sweep(self.pose[:2], nxt[:2])
             self.pose = np.array([xy[0], xy[1], nxt[2]])
+            if self.pose_quantisation != "off":
+                self.pose = quantise_pose(self.pose, self.pose_quantisation)
+                hit = hit or self._overlaps(self.pose[:2])
             if hit:
                 self.collided = True
                 self.collision_step = self.steps
         self.steps += 1
         return StepResult(self.pose.copy(), self.collided, self.observe(), eps)
+
+    def _overlaps(self, xy) -> bool:
+        """Whether the agent's disc at ``xy`` overlaps a solid or the level's boundary (or lies
+        outside the level: a teleport may jump past a wall, never out of the level)."""
+        x, y = float(xy[0]), float(xy[1])
+        if not (0.0 < x < self.level.width and 0.0 < y < self.level.depth):
+            return True
+        return self.world._near_clearance(xy) < self.world.radius
 
     def observe(self) -> Frame | None:
         """The camera's view from the current true pose (None without a camera)."""

@@ -29,6 +29,10 @@ def register(app: typer.Typer) -> None:
                                        f"stands for the level's name) {profile_default('map_source')}."),
         chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
                                   f"{default('up to 8, a quarter of the work per worker')}."),
+        condition: list[str] = typer.Option(None, "--condition", metavar="NAME=VALUE", help="A simulator "
+                                            "condition of the paper, repeatable: pose_quantisation=off|round|"
+                                            "truncate, direction_limit=believed|true, collision_check=swept|"
+                                            "endpoint (overrides the profile's \\[conditions] table)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile")),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                                help=DB_HELP),
@@ -43,12 +47,17 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import command_line, run_with_ui
         from navbench.pipeline.profiles import load_profile, override
         from navbench.pipeline.run import run_profile
+        from navbench.sim.conditions import (CONDITIONS, conditions_to_episode, episode_conditions,
+                                             parse_condition_args)
 
         # an option given but empty (--estimators ',,') is an error, not the profile's list
         prof = override(load_profile(profile), levels=levels or None,
                         estimators=None if estimators is None else parse_list(estimators),
                         noise=None if noise is None else parse_list(noise),
                         tasks=tasks, seeds=seeds, workers=workers, map_source=map_source)
+        if condition:
+            chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
+            prof = override(prof, episode={**prof.episode, **chosen})
 
         result = run_with_ui(lambda ui: run_profile(prof, db=db, executor=executor, address=address,
                                                     chunk_size=chunk, progress=ui, until="navigation",
@@ -56,3 +65,6 @@ def register(app: typer.Typer) -> None:
         summary = result.navigation
         console.print(f"stored {summary.stored} new episodes; {summary.already_done + summary.stored}"
                       f"/{summary.total} of the grid are in the database")
+        changed = {k: v for k, v in episode_conditions(prof.episode).items() if v != CONDITIONS[k].default}
+        if changed:
+            console.print("conditions: " + ", ".join(f"{k}={v}" for k, v in changed.items()), markup=False)

@@ -99,9 +99,16 @@ def build_episode_config(overrides: dict):
 
 
 def resolved_episode_config(cfg: NavigationConfig) -> dict:
-    """The full EpisodeConfig (defaults filled in) plus camera and slice mode, as plain JSON."""
-    return {"camera": cfg.camera, "slice_mode": cfg.slice_mode,
-            **to_jsonable(build_episode_config(cfg.episode))}
+    """The full EpisodeConfig (defaults filled in) plus camera and slice mode, as plain JSON;
+    the simulator conditions added after the first stored runs are left out at their neutral
+    values (:data:`navbench.sim.conditions.KEY_NEUTRAL_FIELDS`), so those runs keep their keys."""
+    from navbench.sim.conditions import KEY_NEUTRAL_FIELDS
+
+    episode = to_jsonable(build_episode_config(cfg.episode))
+    for k, neutral in KEY_NEUTRAL_FIELDS.items():
+        if episode.get(k) == neutral:
+            del episode[k]
+    return {"camera": cfg.camera, "slice_mode": cfg.slice_mode, **episode}
 
 
 def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
