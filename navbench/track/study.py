@@ -75,7 +75,7 @@ class TrackingStudyConfig:
         from navbench.track.kidnap import ODOMETRY_MODES
 
         if int(self.kidnap_every) < 0:
-            raise ConfigError(f"--kidnap-every: expected a step count >= 1 (or 0 for none), "
+            raise ConfigError(f"kidnap_every: expected a step count >= 1 (or 0 for none), "
                               f"got {self.kidnap_every}")
         if self.odometry not in ODOMETRY_MODES:
             raise ConfigError(f"--odometry: expected one of {', '.join(ODOMETRY_MODES)}, "

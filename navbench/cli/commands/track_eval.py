@@ -53,9 +53,9 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
         noise: str = typer.Option("tracking", "--noise", help="Noise level of the recorded "
                                   "trajectories: tracking (the paper's study), none, low, mid, high."),
-        kidnap_every: int = typer.Option(0, "--kidnap-every", help="Teleport the true pose to a "
-                                         "random free pose every N steps (seeded; the estimators "
-                                         "are not told); 0: never."),
+        kidnap_every: int = typer.Option(None, "--kidnap-every", help="Teleport the true pose to a "
+                                         "random free pose every N >= 1 steps (seeded; the "
+                                         "estimators are not told) [default: never]."),
         odometry: str = typer.Option(None, "--odometry", help="world: replay the recorded controls "
                                      "(absolute directions set from the true heading); body: in each "
                                      "estimator's own frame, as a robot's odometry [default: world, "
@@ -63,9 +63,10 @@ def register(app: typer.Typer) -> None:
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
                                          "emission.steps=100."),
-        emission_trajectories: int = typer.Option(10, "--emission-trajectories", min=1, max=MAX_TASKS,
+        emission_trajectories: int = typer.Option(None, "--emission-trajectories", min=1, max=MAX_TASKS,
                                                   help="Replay the slow emission tracker on the first "
-                                                  "this-many trajectories only."),
+                                                  "this-many trajectories only [default: 1000 / "
+                                                  "--steps, at most 10]."),
         paper_budget: bool = typer.Option(False, "--paper-budget", help="Emission tracker with the "
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
                                           "study's default (20 x 500)."),
@@ -97,14 +98,17 @@ def register(app: typer.Typer) -> None:
         from navbench.errors import ConfigError
         from navbench.pipeline.profiles import NOISE_NAMES
 
-        if kidnap_every < 0:
-            raise ConfigError(f"--kidnap-every: expected a step count >= 1 (or 0 for none), got {kidnap_every}")
+        if kidnap_every is not None and kidnap_every < 1:
+            raise ConfigError(f"--kidnap-every: expected a step count >= 1, got {kidnap_every}")
+        kidnap_every = kidnap_every or 0
         if noise not in NOISE_NAMES:
             raise ConfigError(f"--noise: expected one of {', '.join(NOISE_NAMES)}, got {noise!r}")
         if odometry is None:
             odometry = "body" if kidnap_every else "world"
         if trajectories is None:
             trajectories = default_trajectories(steps)
+        if emission_trajectories is None:
+            emission_trajectories = default_trajectories(steps, 1000, 10)
         opts = {"emission": {} if paper_budget else dict(STUDY_EMISSION_OPTIONS)}
         for name, o in parsed_options.items():
             opts.setdefault(name, {}).update(o)
@@ -180,10 +184,11 @@ def _finite(obj):
     return obj
 
 
-def default_trajectories(steps: int) -> int:
-    """The default trajectory count: the default study's 3000 steps in all (30 x 100), at
-    least 1 and at most 30, so that any ``--steps`` keeps its run time."""
-    return max(1, min(30, round(3000 / max(int(steps), 1))))
+def default_trajectories(steps: int, budget: int = 3000, most: int = 30) -> int:
+    """A default trajectory count: ``budget`` steps in all (the default study's 30 x 100; its
+    emission tracker's 10 x 100), at least 1 and at most ``most``, so that any ``--steps``
+    keeps the default run time."""
+    return max(1, min(most, round(budget / max(int(steps), 1))))
 
 
 def raw_odometry_summary(res: dict) -> dict:
