@@ -69,7 +69,7 @@ def main() -> None:
                                      "-o", "ours.health=true", *seed])
         b = track_eval(level, args, ["--estimators", "ours", "--kidnap-every", str(args.kidnap_every),
                                      "-o", "ours.recover=true", "-o",
-                                     f"ours.relocalizer={args.relocalizer}", *seed])
+                                     f"ours.relocalizer_name={args.relocalizer}", *seed])
         plain.append(rows(db, a["meta"]["study_key"], "ours"))
         kid.append(rows(db, b["meta"]["study_key"], "ours"))
         print(f"{level}: ATE median {a['ours']['loc_rmse_m_median']:.4f} m, raw odometry "

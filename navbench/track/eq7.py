@@ -82,7 +82,7 @@ class TrackerConfig:
     health_pixels: int = 1000  # fixed random pixels the health test reads
     health_min_inliers: float = 0.5
     recover: bool = False
-    relocalizer: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
+    relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
     relocalize_top: int = 3  # hypotheses verified per relocalisation
 
     def __post_init__(self):

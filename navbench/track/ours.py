@@ -255,8 +255,12 @@ class _PredictionToObservation:
             raise TrackingError(f"estimator {self.name!r}: recover needs a map-based tracker")
         self._vmap = vmap
         # an object with localize(frame) -> hypotheses (navbench.track.relocalize); None: built
-        # by name (option relocalizer) from vmap the first time the health test fires
+        # by name (option relocalizer_name) from vmap the first time the health test fires
         self._relocalizer = relocalizer
+        if self.config.recover and relocalizer is None:
+            from navbench.track.relocalize import check_relocalizer
+
+            check_relocalizer(self.config.relocalizer_name)
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
         self.seed = int(seed)
@@ -337,7 +341,7 @@ class _PredictionToObservation:
             if self._relocalizer is None:
                 from navbench.track.relocalize import build_relocalizer
 
-                self._relocalizer = build_relocalizer(c.relocalizer, self._vmap, self.intrinsics,
+                self._relocalizer = build_relocalizer(c.relocalizer_name, self._vmap, self.intrinsics,
                                                       self.camera_height, align)
                 timing["relocalizer_build"] = (time.perf_counter() - t0) * 1e3
             t1 = time.perf_counter()

@@ -5,7 +5,7 @@ A relocaliser answers "where in the map is this view?" with no initial pose: an 
 ``(x, y, theta)``, a ``score`` (higher is better) and a ``confidence`` in ``[0, 1]``. That is
 the interface of ``navbench.localize.Localizer`` (issue 14, section 1); ``ours`` uses any
 object with it (constructor argument ``relocalizer=``), or builds one lazily by name from
-:data:`RELOCALIZERS` (option ``relocalizer``) the first time its health test fires:
+:data:`RELOCALIZERS` (option ``relocalizer_name``) the first time its health test fires:
 
 ``localize``
     ``navbench.localize.Localizer.build(world_model, intrinsics, camera_height)``, the
@@ -170,7 +170,7 @@ def _build_localizer(vmap, intrinsics: Intrinsics, camera_height: float, align: 
         from navbench.localize import Localizer
     except ImportError:
         raise TrackingError("relocalizer 'localize': navbench.localize is not part of this build; "
-                            "use the option relocalizer=grid") from None
+                            "use the option relocalizer_name=grid") from None
     return Localizer.build(vmap, intrinsics, camera_height)
 
 
@@ -184,11 +184,23 @@ def _build_grid(vmap, intrinsics: Intrinsics, camera_height: float, align: Calla
 RELOCALIZERS: dict[str, Callable] = {"localize": _build_localizer, "grid": _build_grid}
 
 
+def check_relocalizer(name: str) -> None:
+    """Raise :class:`TrackingError` now (before any tracking) when ``name`` is not a known
+    relocaliser or ``localize`` is missing from this build."""
+    import importlib.util
+
+    if name not in RELOCALIZERS:
+        raise TrackingError(f"unknown relocalizer {name!r}; choose one of {sorted(RELOCALIZERS)}")
+    if name == "localize" and RELOCALIZERS[name] is _build_localizer \
+            and importlib.util.find_spec("navbench.localize") is None:
+        raise TrackingError("relocalizer 'localize': navbench.localize is not part of this build; "
+                            "use the option relocalizer_name=grid")
+
+
 def build_relocalizer(name: str, vmap, intrinsics: Intrinsics, camera_height: float,
                       align: Callable):
     """The relocaliser ``name`` of :data:`RELOCALIZERS` for the world model ``vmap``."""
-    if name not in RELOCALIZERS:
-        raise TrackingError(f"unknown relocalizer {name!r}; choose one of {sorted(RELOCALIZERS)}")
+    check_relocalizer(name)
     if vmap is None:
         raise TrackingError(f"relocalizer {name!r} needs a map (vmap=...)")
     return RELOCALIZERS[name](vmap, intrinsics, camera_height, align)

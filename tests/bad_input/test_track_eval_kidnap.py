@@ -20,3 +20,14 @@ def test_bad_kidnap_and_odometry_options(tmp_path, monkeypatch, args, names):
              "--trajectories", "1", "--no-store", *args)
     assert_clean_error(res, *names)
     assert not (tmp_path / "results").exists()  # refused before anything ran
+
+
+def test_unknown_relocalizer_is_refused_before_tracking(tmp_path, monkeypatch):
+    from tests.track.synth import small_level
+    from navbench.levelio import save_level
+
+    monkeypatch.chdir(tmp_path)
+    path = save_level(small_level(), tmp_path / "track-room.json")
+    res = nb("track-eval", str(path), "--estimators", "ours", "--map", "true", "--steps", "3",
+             "--trajectories", "1", "--no-store", "-o", "ours.recover=true", "-o", "ours.relocalizer_name=magic")
+    assert_clean_error(res, "relocalizer", "magic")
