@@ -234,3 +234,16 @@ def test_track_eval_1000_steps_with_a_tiny_count_and_kidnapping(tmp_path, level,
         assert not tr.collided
         moved = np.hypot(*np.diff(tr.true_poses[:, :2], axis=0).T)
         assert np.mean(moved > 0) > 0.3 and np.sum(moved) > 30  # tens of metres, steadily
+
+
+def test_new_study_fields_leave_existing_keys_alone():
+    """At their defaults kidnap_every and odometry are not hashed: every stored study keeps its key."""
+    from navbench.config import to_jsonable
+    from navbench.pipeline.stages.track_eval import study_key_config
+
+    old = to_jsonable(TrackingStudyConfig())
+    for k in ("kidnap_every", "odometry"):
+        old.pop(k)
+    assert study_key_config(TrackingStudyConfig()) == old
+    kid = study_key_config(TrackingStudyConfig(kidnap_every=7, odometry="body"))
+    assert kid == {**old, "kidnap_every": 7, "odometry": "body"}
