@@ -78,6 +78,7 @@ class TrackerConfig:
     # with both off the tracker computes exactly what it did before.
     health: bool = False
     health_tol: float = 0.05  # relative z-depth agreement of an inlier
+    health_photo_tol: float = 0.3  # colour agreement of an inlier (L1 over RGB)
     health_band: tuple[float, float] = (0.05, 1.1)  # m, heights of the points that count
     health_pixels: int = 1000  # fixed random pixels the health test reads
     health_min_inliers: float = 0.5

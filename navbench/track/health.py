@@ -3,10 +3,14 @@
 After eq. 7 is minimised, the tracker asks whether its estimate still explains the observation:
 the **inlier fraction** is the share of the observed pixels (a fixed sample) whose back-projected
 point ``p``, moved into the reference camera (``q = T_ref^-1 T_wc(z_t) p``), lands on a reference
-pixel whose z-depth agrees with ``q_z`` to within ``tol * q_z`` (relative depth agreement at the
-projective association, the geometric half of eq. 7's association)::
+pixel whose z-depth agrees with ``q_z`` to within ``tol * q_z`` and whose colour agrees with the
+observed one to within ``photo_tol`` (L1 over RGB), both at the projective association of eq. 7::
 
-    inliers = #{k : |D_ref[pi(q_k)] - q_kz| <= tol * q_kz} / #{k : pi(q_k) inside, D_ref valid}
+    inliers = #{k : |D_ref[pi(q_k)] - q_kz| <= tol q_kz  and  |I_ref[pi(q_k)] - I_k|_1 <= photo_tol}
+              / #{k : pi(q_k) inside, D_ref valid}
+
+Depth alone cannot tell apart two places whose geometry is alike (the corners of two rooms of
+the same shape); their textures differ.
 
 Only points between the heights ``band = (z_low, z_high)`` above the floor count: the floor and
 the ceiling are horizontal planes that agree with *any* planar pose at the camera height (a point
@@ -32,7 +36,7 @@ from navbench.track.lie import se3_inverse
 
 def inlier_fraction(ref: Reference, frame: Frame, pose, idx: np.ndarray, tol: float = 0.05,
                     band: tuple[float, float] = (0.05, 1.1), camera_height: float = CAMERA_HEIGHT,
-                    min_pixels: int = 20) -> float:
+                    min_pixels: int = 20, photo_tol: float = 0.3) -> float:
     """The health statistic of the module doc for planar ``pose`` (x, y, theta) and the observed
     pixels with flat indices ``idx``; ``nan`` when fewer than ``min_pixels`` pixels are evidence."""
     obs = sample_observation(frame, ref.intr, idx)
@@ -55,5 +59,6 @@ def inlier_fraction(ref: Reference, frame: Frame, pose, idx: np.ndarray, tol: fl
     n = int(seen.sum())
     if n < min_pixels:
         return math.nan
-    agree = np.abs(ref.depth[vi, ui] - z) <= tol * z
+    agree = (np.abs(ref.depth[vi, ui] - z) <= tol * z) \
+        & (np.abs(ref.rgb[vi, ui] - obs.rgb[use]).sum(axis=1) <= photo_tol)
     return float(np.sum(agree & seen)) / n

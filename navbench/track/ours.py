@@ -324,7 +324,8 @@ class _PredictionToObservation:
         c = self.config
         H, W = self.intrinsics.shape
         return inlier_fraction(ref, frame, pose, gn_pixels(H, W, c.health_pixels, self.seed + 1),
-                               c.health_tol, c.health_band, self.camera_height)
+                               c.health_tol, c.health_band, self.camera_height,
+                               photo_tol=c.health_photo_tol)
 
     def _health(self, ref: Reference, frame: Frame, est: np.ndarray, timing: dict) -> np.ndarray:
         """The health test at ``est`` (:mod:`navbench.track.health`); on an alarm with option

@@ -344,9 +344,9 @@ def health_summary(results: dict[str, Any], name: str, within: int = 5) -> dict[
     With kidnapping: ``kidnaps``, ``recovered_frac`` (within ``within`` steps, location error
     < 0.25 m and heading error < 10 deg), ``recover_steps_median`` (over recovered kidnaps)
     and, for an estimator with a health test, ``detected_frac``. For an estimator with a health
-    test: ``alarms_per_step`` (all alarms / all steps: on a study without kidnapping every alarm
-    is a false alarm), ``alarm_trajectories_frac`` (runs with at least one alarm) and
-    ``relocalizations``. Empty when neither applies.
+    test: ``alarms_per_step`` (all alarms / all steps), ``false_alarms_per_step`` (alarms raised
+    at a pose within the recovery tolerance / all steps), ``false_alarm_trajectories_frac`` (runs
+    with at least one false alarm) and ``relocalizations``. Empty when neither applies.
     """
     from navbench.track.kidnap import median_or_nan, recovered_within
 
@@ -362,10 +362,26 @@ def health_summary(results: dict[str, Any], name: str, within: int = 5) -> dict[
             det = np.concatenate([x["detected"] for x in recs])
             out["detected_frac"] = float(np.mean(det)) if len(det) else math.nan
     if "alarm" in r:
+        false = r["alarm"] & _on_track(results, name)
         out.update(alarms_per_step=float(np.mean(r["alarm"])),
-                   alarm_trajectories_frac=float(np.mean(np.any(r["alarm"], axis=1))),
+                   false_alarms_per_step=float(np.mean(false)),
+                   false_alarm_trajectories_frac=float(np.mean(np.any(false, axis=1))),
                    relocalizations=int(np.sum(r["relocalized"])))
     return out
+
+
+def _on_track(results: dict[str, Any], name: str) -> np.ndarray:
+    """``(runs, T)`` bool: the pose update ``t`` produced is within the recovery tolerance
+    (location < 0.25 m, heading < 10 deg); an alarm there is a false alarm."""
+    from navbench.track.kidnap import pose_errors
+
+    r = results["estimators"][name]
+    tp = results["trajectories"]["true_poses"]
+    out = []
+    for k, i in enumerate(r["trajectory"]):
+        loc, rot = pose_errors(tp[i][1:], r["est_poses"][k, 1: len(tp[i])])
+        out.append((loc < 0.25) & (rot < 10.0))
+    return np.array(out)
 
 
 def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None = None) -> list[dict]:
@@ -373,7 +389,8 @@ def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None =
     layout of :meth:`navbench.pipeline.db.ResultsDB.add_tracking_rows` (times are per-step
     medians in ms; RMSE in m and deg; ``loc_rmse_m`` is the ATE, :mod:`navbench.track.kidnap`).
     Issue 14's columns where they apply: ``raw_odom_ate_m`` (the trajectory's raw odometry),
-    ``kidnaps``, ``kidnaps_recovered`` (within 5 steps), ``kidnaps_detected``, ``alarms``."""
+    ``kidnaps``, ``kidnaps_recovered`` (within 5 steps), ``kidnaps_detected``, ``alarms``,
+    ``false_alarms`` (alarms at a pose within the recovery tolerance)."""
     from navbench.track.kidnap import recovered_within
 
     cfg = results.get("config", {})
@@ -383,6 +400,7 @@ def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None =
     raw = results["trajectories"].get("raw_odom_ate_m")
     for name, r in results["estimators"].items():
         recs = _recoveries(results, name)
+        on_track = _on_track(results, name) if "alarm" in r else None
         kidnapped = results["trajectories"].get("kidnapped") is not None
         for i in range(len(r["loc_rmse_m"])):
             extra = {}
@@ -395,6 +413,7 @@ def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None =
                     extra["kidnaps_detected"] = int(np.sum(recs[i]["detected"]))
             if "alarm" in r:
                 extra["alarms"] = int(np.sum(r["alarm"][i]))
+                extra["false_alarms"] = int(np.sum(r["alarm"][i] & on_track[i]))
             rows.append({
                 "study_key": study_key, "level": results["level"], "map_key": map_key,
                 "estimator": name, "estimator_options": dict(options.get(name, {})),

@@ -210,9 +210,9 @@ def _print_health(summary: dict) -> None:
     if not rows:
         return
     t = Table(title="kidnapped robot (recovered: location < 0.25 m and heading < 10 deg within "
-                    "5 steps; alarms per step: all health alarms / steps)")
+                    "5 steps; false alarm: an alarm at a pose within that tolerance; per step)")
     cols = ("estimator", "kidnaps", "detected", "recovered <= 5 steps", "steps to recover (median)",
-            "alarms per step", "runs with an alarm", "relocalisations")
+            "alarms per step", "false alarms per step", "runs with a false alarm", "relocalisations")
     for col in cols:
         t.add_column(col, justify="left" if col == "estimator" else "right")
 
@@ -224,7 +224,8 @@ def _print_health(summary: dict) -> None:
         t.add_row(escape(name), str(s.get("kidnaps", "-")), pct(s.get("detected_frac")),
                   pct(s.get("recovered_frac")), "-" if steps is None or steps != steps else f"{steps:.1f}",
                   "-" if "alarms_per_step" not in s else f"{100 * s['alarms_per_step']:.2f} %",
-                  pct(s.get("alarm_trajectories_frac")), str(s.get("relocalizations", "-")))
+                  "-" if "false_alarms_per_step" not in s else f"{100 * s['false_alarms_per_step']:.2f} %",
+                  pct(s.get("false_alarm_trajectories_frac")), str(s.get("relocalizations", "-")))
     console.print(t)
 
 

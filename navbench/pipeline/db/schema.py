@@ -74,7 +74,7 @@ _ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"),
                   # issue 14: raw odometry and the kidnapped-robot test of a tracking row
                   ("tracking", "raw_odom_ate_m"), ("tracking", "kidnaps"),
                   ("tracking", "kidnaps_detected"), ("tracking", "kidnaps_recovered"),
-                  ("tracking", "alarms"))
+                  ("tracking", "alarms"), ("tracking", "false_alarms"))
 #: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
 _PG_SCHEMA_LOCK = 0x6E617662656E6368
 
@@ -194,6 +194,7 @@ class TrackingRow(Base):
     kidnaps_detected: Mapped[int | None] = mapped_column(Integer, nullable=True)
     kidnaps_recovered: Mapped[int | None] = mapped_column(Integer, nullable=True)
     alarms: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    false_alarms: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
 
 class BenchRow(Base):
@@ -225,6 +226,7 @@ _TRACKING_FIELDS = (
     "study_key", "level", "map_key", "estimator", "estimator_options", "noise", "trajectory_id",
     "seed", "steps", "loc_rmse_m", "rot_rmse_deg", "step_ms_median", "render_ms", "estimate_ms",
     "traj_key", "raw_odom_ate_m", "kidnaps", "kidnaps_detected", "kidnaps_recovered", "alarms",
+    "false_alarms",
 )
 _TRACKING_REQUIRED = ("study_key", "level", "estimator", "trajectory_id", "seed")
 _BENCH_FIELDS = ("metric", "value", "unit", "device", "host", "cpu", "navbench_version")
