@@ -38,7 +38,7 @@ def register(app: typer.Typer) -> None:
     def track_eval(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
         trajectories: int = typer.Option(None, "--trajectories", min=1, max=MAX_TASKS,
-                                         help="Recorded trajectories [default: 3000 / --steps, "
+                                         help="Recorded trajectories \\[default: 3000 / --steps, "
                                          "at most 30: 30 x 100 steps, 3 x 1000 steps]."),
         seeds: int = typer.Option(1, "--seeds", min=1, max=MAX_SEEDS, help="Estimator seeds per trajectory."),
         estimators: str = typer.Option("ours,emission,no-map,dynamics,gt", "--estimators",
@@ -55,17 +55,17 @@ def register(app: typer.Typer) -> None:
                                   "trajectories: tracking (the paper's study), none, low, mid, high."),
         kidnap_every: int = typer.Option(None, "--kidnap-every", help="Teleport the true pose to a "
                                          "random free pose every N >= 1 steps (seeded; the "
-                                         "estimators are not told) [default: never]."),
+                                         "estimators are not told) \\[default: never]."),
         odometry: str = typer.Option(None, "--odometry", help="world: replay the recorded controls "
                                      "(absolute directions set from the true heading); body: in each "
-                                     "estimator's own frame, as a robot's odometry [default: world, "
+                                     "estimator's own frame, as a robot's odometry \\[default: world, "
                                      "body with --kidnap-every]."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
                                          "emission.steps=100."),
         emission_trajectories: int = typer.Option(None, "--emission-trajectories", min=1, max=MAX_TASKS,
                                                   help="Replay the slow emission tracker on the first "
-                                                  "this-many trajectories only [default: 1000 / "
+                                                  "this-many trajectories only \\[default: 1000 / "
                                                   "--steps, at most 10]."),
         paper_budget: bool = typer.Option(False, "--paper-budget", help="Emission tracker with the "
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
