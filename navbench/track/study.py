@@ -15,6 +15,12 @@ pair, each starting from the known start pose (an estimator with a ``trajectory_
 replays only the first that-many trajectories). Per trajectory and estimator the location RMSE
 (m) and orientation RMSE (deg) over the ``T + 1`` poses and the per-step times are kept.
 
+Issue 14 (:mod:`navbench.track.kidnap`): ``kidnap_every`` teleports the true pose every N
+steps during the recording; ``odometry="body"`` replays the controls in each estimator's own
+frame (:func:`~navbench.track.kidnap.body_control`); the results also hold each trajectory's
+raw-odometry ATE and, for estimators with a health test, its per-step alarms, inlier fractions
+and relocalisations (:func:`health_summary`). The location RMSE is the ATE.
+
 Pure library: arrays and dicts in and out, no files, printing or database.
 """
 
