@@ -203,5 +203,16 @@ def build_relocalizer(name: str, vmap, intrinsics: Intrinsics, camera_height: fl
     check_relocalizer(name)
     if vmap is None:
         raise TrackingError(f"relocalizer {name!r} needs a map (vmap=...)")
-    return RELOCALIZERS[name](vmap, intrinsics, camera_height, align)
+    hash_of = getattr(vmap, "content_hash", None)
+    key = (name, RELOCALIZERS[name], hash_of() if callable(hash_of) else id(vmap), intrinsics,
+           float(camera_height))
+    if key not in _BUILT:  # one per map and camera per process (navigation builds an estimator per episode)
+        if len(_BUILT) >= 4:
+            _BUILT.pop(next(iter(_BUILT)))
+        _BUILT[key] = RELOCALIZERS[name](vmap, intrinsics, camera_height, align)
+    return _BUILT[key]
+
+
+#: Relocalisers built by :func:`build_relocalizer` in this process, oldest first (at most 4).
+_BUILT: dict = {}
 

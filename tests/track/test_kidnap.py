@@ -247,3 +247,26 @@ def test_new_study_fields_leave_existing_keys_alone():
     assert study_key_config(TrackingStudyConfig()) == old
     kid = study_key_config(TrackingStudyConfig(kidnap_every=7, odometry="body"))
     assert kid == {**old, "kidnap_every": 7, "odometry": "body"}
+
+
+def test_relocalizers_are_built_once_per_map_and_swappable(monkeypatch):
+    """``ours`` builds its relocaliser by name from RELOCALIZERS, lazily and once per map."""
+    from navbench.track import relocalize
+
+    built = []
+
+    class Fake:
+        def localize(self, frame, k=None):
+            return []
+
+    monkeypatch.setitem(relocalize.RELOCALIZERS, "fake", lambda *a: built.append(a) or Fake())
+
+    class Map:
+        def content_hash(self):
+            return "abc"
+
+    a = relocalize.build_relocalizer("fake", Map(), HALF_CAMERA, 0.5, None)
+    b = relocalize.build_relocalizer("fake", Map(), HALF_CAMERA, 0.5, None)
+    assert a is b and len(built) == 1
+    with pytest.raises(Exception, match="unknown relocalizer"):
+        relocalize.build_relocalizer("nope", Map(), HALF_CAMERA, 0.5, None)
