@@ -71,6 +71,20 @@ class TrackerConfig:
     yaw_search_deg: float = 24.0
     yaw_search_step_deg: float = 2.0
     yaw_search_pixels: int = 400
+    # tracking health and recovery (issue 14; navbench.track.health, navbench.track.relocalize):
+    # health: compute the inlier fraction at each estimate and raise an alarm below
+    # health_min_inliers (calibrated on normal tracking of house-1, docs/pending/i14-kidnap.md);
+    # recover: on an alarm, relocalise through the relocaliser (health implied). Off by default:
+    # with both off the tracker computes exactly what it did before.
+    health: bool = False
+    health_tol: float = 0.05  # relative z-depth agreement of an inlier
+    health_photo_tol: float = 0.3  # colour agreement of an inlier (L1 over RGB)
+    health_band: tuple[float, float] = (0.05, 1.1)  # m, heights of the points that count
+    health_pixels: int = 1000  # fixed random pixels the health test reads
+    health_min_inliers: float = 0.5
+    recover: bool = False
+    relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
+    relocalize_top: int = 3  # hypotheses verified per relocalisation
 
     def __post_init__(self):
         if self.optimizer not in OPTIMIZERS:
@@ -82,6 +96,10 @@ class TrackerConfig:
                 raise TrackingError(f"option {name} must be >= 1, got {getattr(self, name)!r}")
         if min(self.prior_sigma) <= 0 or min(self.off_plane_sigma) <= 0:
             raise TrackingError("prior sigmas must be > 0")
+        if not self.health_tol > 0 or not 0 <= self.health_min_inliers <= 1:
+            raise TrackingError("health_tol must be > 0 and health_min_inliers within [0, 1]")
+        if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
+            raise TrackingError("health_pixels and relocalize_top must be >= 1")
 
 
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:

@@ -249,8 +249,18 @@ class _PredictionToObservation:
 
     def __init__(self, vmap=None, intrinsics: Intrinsics = HALF_CAMERA,
                  camera_height: float = CAMERA_HEIGHT, renderer: Callable | None = None,
-                 seed: int = 0, **options):
+                 seed: int = 0, relocalizer=None, **options):
         self.config = make_config(options)
+        if self.config.recover and not self.uses_map:
+            raise TrackingError(f"estimator {self.name!r}: recover needs a map-based tracker")
+        self._vmap = vmap
+        # an object with localize(frame) -> hypotheses (navbench.track.relocalize); None: built
+        # by name (option relocalizer_name) from vmap the first time the health test fires
+        self._relocalizer = relocalizer
+        if self.config.recover and relocalizer is None:
+            from navbench.track.relocalize import check_relocalizer
+
+            check_relocalizer(self.config.relocalizer_name)
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
         self.seed = int(seed)
@@ -261,6 +271,8 @@ class _PredictionToObservation:
             self._render = None
         self.pose = None
         self.last_timing: dict[str, float] = {}
+        # with option health or recover: {"inliers": float, "alarm": bool, "relocalized": bool}
+        self.last_health: dict | None = None
         self._ref: Reference | None = None
         self._ref_pose: np.ndarray | None = None
         self._prev_frame: Frame | None = None
@@ -271,6 +283,7 @@ class _PredictionToObservation:
         self._ref_pose = None
         self._prev_frame = frame0
         self.last_timing = {}
+        self.last_health = None
 
     def _reference(self) -> tuple[Reference, float]:
         """The reference for the current ``z*_{t-1}`` (rendered at most once per pose)."""
@@ -295,11 +308,58 @@ class _PredictionToObservation:
         pred = np.asarray(predict_pose(self.pose, control), dtype=np.float64)
         est = align(ref, frame, pred, self.config, self.seed, self.camera_height)
         t2 = time.perf_counter()
+        extra: dict[str, float] = {}
+        if self.config.health or self.config.recover:
+            est = self._health(ref, frame, est, extra)
+            t2 = time.perf_counter()
         self.pose = est
         self._prev_frame = frame
         prep_ms = (t1 - t0) * 1e3 - ms_render
-        self.last_timing = {"render": ms_render, "estimate": prep_ms + (t2 - t1) * 1e3}
+        self.last_timing = {"render": ms_render, "estimate": prep_ms + (t2 - t1) * 1e3, **extra}
         return est.copy()
+
+    def _inliers(self, ref: Reference, frame: Frame, pose: np.ndarray) -> float:
+        from navbench.track.health import inlier_fraction
+
+        c = self.config
+        H, W = self.intrinsics.shape
+        return inlier_fraction(ref, frame, pose, gn_pixels(H, W, c.health_pixels, self.seed + 1),
+                               c.health_tol, c.health_band, self.camera_height,
+                               photo_tol=c.health_photo_tol)
+
+    def _health(self, ref: Reference, frame: Frame, est: np.ndarray, timing: dict) -> np.ndarray:
+        """The health test at ``est`` (:mod:`navbench.track.health`); on an alarm with option
+        ``recover``, relocalise: verify the relocaliser's best ``relocalize_top`` hypotheses by
+        one tracking step against the map's rendering there and keep the one with the highest
+        inlier fraction if it passes the test and beats ``est``. Fills ``last_health``; the
+        relocaliser's build (once) and query times go to ``timing`` (ms, within "estimate")."""
+        c = self.config
+        f = self._inliers(ref, frame, est)
+        alarm = bool(f < c.health_min_inliers)  # nan (no evidence) is no alarm
+        relocalized = False
+        if alarm and c.recover:
+            t0 = time.perf_counter()
+            if self._relocalizer is None:
+                from navbench.track.relocalize import build_relocalizer
+
+                self._relocalizer = build_relocalizer(c.relocalizer_name, self._vmap, self.intrinsics,
+                                                      self.camera_height, align)
+                timing["relocalizer_build"] = (time.perf_counter() - t0) * 1e3
+            t1 = time.perf_counter()
+            best, best_f = None, (f if not math.isnan(f) else -math.inf)
+            for hyp in list(self._relocalizer.localize(frame))[: c.relocalize_top]:
+                pose = np.asarray(hyp.pose, dtype=np.float64).reshape(3)
+                href = prepare_reference(self._render(pose), self.intrinsics,
+                                         camera_pose(pose, self.camera_height))
+                cand = align(href, frame, pose, c, self.seed, self.camera_height)
+                fc = self._inliers(href, frame, cand)
+                if fc >= c.health_min_inliers and fc > best_f:
+                    best, best_f = cand, fc
+            if best is not None:
+                est, relocalized = best, True
+            timing["relocalize"] = (time.perf_counter() - t1) * 1e3
+        self.last_health = {"inliers": f, "alarm": alarm, "relocalized": relocalized}
+        return est
 
 
 class PredictionToObservationTracker(_PredictionToObservation):

@@ -15,6 +15,12 @@ pair, each starting from the known start pose (an estimator with a ``trajectory_
 replays only the first that-many trajectories). Per trajectory and estimator the location RMSE
 (m) and orientation RMSE (deg) over the ``T + 1`` poses and the per-step times are kept.
 
+Issue 14 (:mod:`navbench.track.kidnap`): ``kidnap_every`` teleports the true pose every N
+steps during the recording; ``odometry="body"`` replays the controls in each estimator's own
+frame (:func:`~navbench.track.kidnap.body_control`); the results also hold each trajectory's
+raw-odometry ATE and, for estimators with a health test, its per-step alarms, inlier fractions
+and relocalisations (:func:`health_summary`). The location RMSE is the ATE.
+
 Pure library: arrays and dicts in and out, no files, printing or database.
 """
 
@@ -57,6 +63,11 @@ class TrackingStudyConfig:
     estimator_options: dict = field(default_factory=lambda: {"emission": dict(STUDY_EMISSION_OPTIONS)})
     # per-estimator cap on the number of trajectories replayed (the first ones), e.g. {"emission": 10}
     trajectory_limits: dict = field(default_factory=lambda: dict(STUDY_TRAJECTORY_LIMITS))
+    # issue 14 (navbench.track.kidnap): teleport the true pose every kidnap_every steps (0: never);
+    # odometry "world" replays the recorded controls as they are, "body" in each estimator's own
+    # frame (required with kidnapping). Left out of the stage's cache key at these defaults.
+    kidnap_every: int = 0
+    odometry: str = "world"
 
     def __post_init__(self):
         if self.trajectories < 1 or self.seeds < 1 or self.steps < 1:
@@ -67,6 +78,17 @@ class TrackingStudyConfig:
             raise ConfigError(f"estimator listed twice: {list(self.estimators)}")
         if any(int(v) < 1 for v in self.trajectory_limits.values()):
             raise ConfigError("trajectory limits must be >= 1")
+        from navbench.track.kidnap import ODOMETRY_MODES
+
+        if int(self.kidnap_every) < 0:
+            raise ConfigError(f"kidnap_every: expected a step count >= 1 (or 0 for none), "
+                              f"got {self.kidnap_every}")
+        if self.odometry not in ODOMETRY_MODES:
+            raise ConfigError(f"--odometry: expected one of {', '.join(ODOMETRY_MODES)}, "
+                              f"got {self.odometry!r}")
+        if self.kidnap_every and self.odometry != "body":
+            raise ConfigError("--kidnap-every needs --odometry body (world-frame controls would "
+                              "tell the estimators the new true heading)")
 
 
 @dataclass
@@ -79,16 +101,22 @@ class Trajectory:
     noise: np.ndarray  # (T, 2) noise drawn (eps_alpha [rad], eps_s [m])
     collided: bool
     seed: int  # simulator seed
+    kidnapped: np.ndarray | None = None  # (T + 1,) bool: teleported to this pose (None: never)
 
 
 def record_trajectories(level, count: int, steps: int, noise: str = "tracking", seed: int = 0,
                         clearance: float = 1.2 * AGENT_LENGTH,
-                        waypoint_range: float = 3.0) -> list[Trajectory]:
+                        waypoint_range: float = 3.0, kidnap_every: int = 0) -> list[Trajectory]:
     """Drive the simulator (no camera) ``count`` times for ``steps`` controls; see the module doc.
 
     Trajectory ``i`` uses simulator seed ``seed * 100003 + i``; start poses and waypoints come
-    from ``np.random.default_rng([seed, i])``. Deterministic for a given ``seed``.
+    from ``np.random.default_rng([seed, i])``. Deterministic for a given ``seed``. With
+    ``kidnap_every`` N > 0 the true pose is teleported after every N-th control to a free pose
+    (clearance ``clearance``, uniform heading) drawn from its own stream
+    ``np.random.default_rng([seed, i, KIDNAP_SALT])`` (:mod:`navbench.track.kidnap`).
     """
+    from navbench.track.kidnap import KIDNAP_SALT, kidnap_indices
+
     from navbench.nav.controller import control_towards
     from navbench.sim.world import CollisionWorld, Simulator, sample_free_points
 
@@ -103,7 +131,10 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
         sim.reset(start)
         poses, controls, eps = [start.copy()], [], []
         target = None
-        for _ in range(steps):
+        kidnaps = set(kidnap_indices(steps, kidnap_every).tolist())
+        krng = np.random.default_rng([int(seed), i, KIDNAP_SALT])
+        collided = False
+        for t in range(steps):
             if target is None or np.hypot(*(target - sim.pose[:2])) < 0.5 * AGENT_LENGTH:
                 target = _pick_waypoint(level, wide, sim.pose[:2], rng, clearance, waypoint_range)
             res = sim.step(control_towards(sim.pose, target))
@@ -113,8 +144,19 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
             poses.append(res.pose.copy())
             if res.collided:  # should not happen with the wide clearance; the record stays valid
                 target = None
+            if t + 1 in kidnaps:
+                collided |= bool(sim.collided)
+                xy = sample_free_points(level, krng, 1, clearance)[0]
+                sim.reset(np.array([xy[0], xy[1], float(wrap_angle(krng.uniform(-math.pi, math.pi)))]))
+                poses[-1] = sim.pose.copy()
+                target = None
+        kidnapped = None
+        if kidnaps:
+            kidnapped = np.zeros(steps + 1, bool)
+            kidnapped[sorted(kidnaps)] = True
         out.append(Trajectory(start, np.array(poses), np.array(controls, dtype=np.float64),
-                              np.array(eps, dtype=np.float64), bool(sim.collided), sim_seed))
+                              np.array(eps, dtype=np.float64), bool(sim.collided) or collided,
+                              sim_seed, kidnapped))
     return out
 
 
@@ -155,13 +197,15 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     from navbench.geometry import camera_by_name
     from navbench.sim.camera import RaycastCamera
     from navbench.sim.dynamics import Control
+    from navbench.nav.metrics import location_rmse
+    from navbench.track.kidnap import body_control, dead_reckoning
     from navbench.track.registry import make_estimator
 
     intr = camera_by_name(config.camera)
     if trajectories is None:
         trajectories = record_trajectories(level, config.trajectories, config.steps, config.noise,
                                            config.seed, config.waypoint_clearance,
-                                           config.waypoint_range)
+                                           config.waypoint_range, config.kidnap_every)
     camera = RaycastCamera(level, intr, config.camera_height)
     opts = config.estimator_options or {}
     runs = []  # (name, seed, estimator)
@@ -175,7 +219,11 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     T = len(trajectories[0].controls)
     N = len(trajectories)
     per = {(name, s): {"est": np.full((N, T + 1, 3), np.nan), "render": np.full((N, T), np.nan),
-                       "estimate": np.full((N, T), np.nan)} for name, s, _ in runs}
+                       "estimate": np.full((N, T), np.nan), "alarm": np.zeros((N, T), bool),
+                       "inliers": np.full((N, T), np.nan), "relocalized": np.zeros((N, T), bool)}
+           for name, s, _ in runs}
+    health = {name: False for name in config.estimators}  # reports a health test (last_health)
+    body = config.odometry == "body"
     limits = {name: min(N, int(config.trajectory_limits.get(name, N)))
               for name in config.estimators}
     for n, traj in enumerate(trajectories):
@@ -188,11 +236,19 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
             frame = camera.render(traj.true_poses[t + 1])
             u = Control(*(float(v) for v in traj.controls[t]))
             for name, s, est in active:
-                e = est.update(u, frame, traj.true_poses[t + 1].copy())
                 rec = per[(name, s)]
+                if body:
+                    u = body_control(traj.controls[t], traj.true_poses[t, 2], rec["est"][n, t, 2])
+                e = est.update(u, frame, traj.true_poses[t + 1].copy())
                 rec["est"][n, t + 1] = e
                 rec["render"][n, t] = est.last_timing.get("render", 0.0)
                 rec["estimate"][n, t] = est.last_timing.get("estimate", 0.0)
+                h = getattr(est, "last_health", None)
+                if h is not None:
+                    health[name] = True
+                    rec["alarm"][n, t] = bool(h.get("alarm", False))
+                    rec["inliers"][n, t] = float(h.get("inliers", np.nan))
+                    rec["relocalized"][n, t] = bool(h.get("relocalized", False))
         if progress is not None:
             progress(n + 1, N)
 
@@ -214,6 +270,12 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
         out_est[name] = {"seed": seeds, "trajectory": traj_idx, "est_poses": est_poses,
                          "loc_rmse_m": np.array(loc), "rot_rmse_deg": np.array(rot),
                          "render_ms": render, "estimate_ms": estimate, "step_ms": render + estimate}
+        if health[name]:  # the health test's record (issue 14): per step, as the poses
+            for k in ("alarm", "inliers", "relocalized"):
+                out_est[name][k] = np.concatenate([r[k][:Ne] for r in rows])
+    extra = {}
+    if config.kidnap_every:
+        extra["kidnapped"] = np.stack([t.kidnapped for t in trajectories])
     return {
         "config": _config_dict(config),
         "level": level.name,
@@ -224,6 +286,9 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
             "noise": np.stack([t.noise for t in trajectories]),
             "collided": np.array([t.collided for t in trajectories]),
             "seed": np.array([t.seed for t in trajectories]),
+            "raw_odom_ate_m": np.array([location_rmse(t.true_poses, dead_reckoning(
+                t.start, t.controls, t.true_poses)) for t in trajectories]),
+            **extra,
         },
         "estimators": out_est,
     }
@@ -259,19 +324,102 @@ def summarise(results: dict[str, Any], threshold_m: float = 0.1) -> dict[str, di
             "estimate_ms_median": float(np.nanmedian(r["estimate_ms"])),
             "runs": int(len(loc)),
         }
+        out[name].update(health_summary(results, name))
     return out
+
+
+def _recoveries(results: dict[str, Any], name: str) -> list[dict[str, np.ndarray]]:
+    """:func:`navbench.track.kidnap.recovery` of every run of estimator ``name``."""
+    from navbench.track.kidnap import recovery
+
+    r = results["estimators"][name]
+    tr = results["trajectories"]
+    kid = tr.get("kidnapped")
+    out = []
+    for k, i in enumerate(r["trajectory"]):
+        true = tr["true_poses"][i]
+        kidnapped = kid[i] if kid is not None else np.zeros(len(true), bool)
+        alarms = r["alarm"][k] if "alarm" in r else None
+        out.append(recovery(true, r["est_poses"][k, : len(true)], kidnapped, alarms))
+    return out
+
+
+def health_summary(results: dict[str, Any], name: str, within: int = 5) -> dict[str, float]:
+    """Kidnap and health figures of estimator ``name`` (issue 14; :mod:`navbench.track.kidnap`).
+
+    With kidnapping: ``kidnaps``, ``recovered_frac`` (within ``within`` steps, location error
+    < 0.25 m and heading error < 10 deg), ``recover_steps_median`` (over recovered kidnaps)
+    and, for an estimator with a health test, ``detected_frac``. For an estimator with a health
+    test: ``alarms_per_step`` (all alarms / all steps), ``false_alarms_per_step`` (alarms raised
+    at a pose within the recovery tolerance / all steps), ``false_alarm_trajectories_frac`` (runs
+    with at least one false alarm) and ``relocalizations``. Empty when neither applies.
+    """
+    from navbench.track.kidnap import median_or_nan, recovered_within
+
+    r = results["estimators"][name]
+    out: dict[str, float] = {}
+    if results["trajectories"].get("kidnapped") is not None:
+        recs = _recoveries(results, name)
+        steps = np.concatenate([x["steps"] for x in recs])
+        ok = recovered_within(steps, within)
+        out.update(kidnaps=int(len(steps)), recovered_frac=float(np.mean(ok)) if len(steps) else math.nan,
+                   recover_steps_median=median_or_nan(steps[ok]))
+        if "alarm" in r:
+            det = np.concatenate([x["detected"] for x in recs])
+            out["detected_frac"] = float(np.mean(det)) if len(det) else math.nan
+    if "alarm" in r:
+        false = r["alarm"] & _on_track(results, name)
+        out.update(alarms_per_step=float(np.mean(r["alarm"])),
+                   false_alarms_per_step=float(np.mean(false)),
+                   false_alarm_trajectories_frac=float(np.mean(np.any(false, axis=1))),
+                   relocalizations=int(np.sum(r["relocalized"])))
+    return out
+
+
+def _on_track(results: dict[str, Any], name: str) -> np.ndarray:
+    """``(runs, T)`` bool: the pose update ``t`` produced is within the recovery tolerance
+    (location < 0.25 m, heading < 10 deg); an alarm there is a false alarm."""
+    from navbench.track.kidnap import pose_errors
+
+    r = results["estimators"][name]
+    tp = results["trajectories"]["true_poses"]
+    out = []
+    for k, i in enumerate(r["trajectory"]):
+        loc, rot = pose_errors(tp[i][1:], r["est_poses"][k, 1: len(tp[i])])
+        out.append((loc < 0.25) & (rot < 10.0))
+    return np.array(out)
 
 
 def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None = None) -> list[dict]:
     """One row per (estimator, trajectory, seed) of :func:`run_tracking_study` results, in the
     layout of :meth:`navbench.pipeline.db.ResultsDB.add_tracking_rows` (times are per-step
-    medians in ms; RMSE in m and deg)."""
+    medians in ms; RMSE in m and deg; ``loc_rmse_m`` is the ATE, :mod:`navbench.track.kidnap`).
+    Issue 14's columns where they apply: ``raw_odom_ate_m`` (the trajectory's raw odometry),
+    ``kidnaps``, ``kidnaps_recovered`` (within 5 steps), ``kidnaps_detected``, ``alarms``,
+    ``false_alarms`` (alarms at a pose within the recovery tolerance)."""
+    from navbench.track.kidnap import recovered_within
+
     cfg = results.get("config", {})
     options = cfg.get("estimator_options", {}) or {}
     noise = cfg.get("noise")
     rows = []
+    raw = results["trajectories"].get("raw_odom_ate_m")
     for name, r in results["estimators"].items():
+        recs = _recoveries(results, name)
+        on_track = _on_track(results, name) if "alarm" in r else None
+        kidnapped = results["trajectories"].get("kidnapped") is not None
         for i in range(len(r["loc_rmse_m"])):
+            extra = {}
+            if raw is not None:
+                extra["raw_odom_ate_m"] = float(raw[int(r["trajectory"][i])])
+            if kidnapped:
+                extra["kidnaps"] = int(len(recs[i]["steps"]))
+                extra["kidnaps_recovered"] = int(np.sum(recovered_within(recs[i]["steps"])))
+                if "alarm" in r:
+                    extra["kidnaps_detected"] = int(np.sum(recs[i]["detected"]))
+            if "alarm" in r:
+                extra["alarms"] = int(np.sum(r["alarm"][i]))
+                extra["false_alarms"] = int(np.sum(r["alarm"][i] & on_track[i]))
             rows.append({
                 "study_key": study_key, "level": results["level"], "map_key": map_key,
                 "estimator": name, "estimator_options": dict(options.get(name, {})),
@@ -282,5 +430,6 @@ def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None =
                 "step_ms_median": float(np.nanmedian(r["step_ms"][i])),
                 "render_ms": float(np.nanmedian(r["render_ms"][i])),
                 "estimate_ms": float(np.nanmedian(r["estimate_ms"][i])),
+                **extra,
             })
     return rows

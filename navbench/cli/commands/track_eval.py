@@ -37,7 +37,9 @@ def register(app: typer.Typer) -> None:
     @app.command("track-eval")
     def track_eval(
         level: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
-        trajectories: int = typer.Option(30, "--trajectories", min=1, max=MAX_TASKS, help="Recorded trajectories."),
+        trajectories: int = typer.Option(None, "--trajectories", min=1, max=MAX_TASKS,
+                                         help="Recorded trajectories \\[default: 3000 / --steps, "
+                                         "at most 30: 30 x 100 steps, 3 x 1000 steps]."),
         seeds: int = typer.Option(1, "--seeds", min=1, max=MAX_SEEDS, help="Estimator seeds per trajectory."),
         estimators: str = typer.Option("ours,emission,no-map,dynamics,gt", "--estimators",
                                        help="Comma-separated estimator names."),
@@ -49,12 +51,22 @@ def register(app: typer.Typer) -> None:
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
                                                                           "build the map with --map fit")),
         seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
+        noise: str = typer.Option("tracking", "--noise", help="Noise level of the recorded "
+                                  "trajectories: tracking (the paper's study), none, low, mid, high."),
+        kidnap_every: int = typer.Option(None, "--kidnap-every", help="Teleport the true pose to a "
+                                         "random free pose every N >= 1 steps (seeded; the "
+                                         "estimators are not told) \\[default: never]."),
+        odometry: str = typer.Option(None, "--odometry", help="world: replay the recorded controls "
+                                     "(absolute directions set from the true heading); body: in each "
+                                     "estimator's own frame, as a robot's odometry \\[default: world, "
+                                     "body with --kidnap-every]."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
                                          "emission.steps=100."),
-        emission_trajectories: int = typer.Option(10, "--emission-trajectories", min=1, max=MAX_TASKS,
+        emission_trajectories: int = typer.Option(None, "--emission-trajectories", min=1, max=MAX_TASKS,
                                                   help="Replay the slow emission tracker on the first "
-                                                  "this-many trajectories only."),
+                                                  "this-many trajectories only \\[default: 1000 / "
+                                                  "--steps, at most 10]."),
         paper_budget: bool = typer.Option(False, "--paper-budget", help="Emission tracker with the "
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
                                           "study's default (20 x 500)."),
@@ -83,13 +95,28 @@ def register(app: typer.Typer) -> None:
         parsed_options = _parse_options(option)
         _check_estimators(names, parsed_options)  # before the level is built or anything recorded
         prof = load_profile(profile) if map_ == "fit" else None
+        from navbench.errors import ConfigError
+        from navbench.pipeline.profiles import NOISE_NAMES
+
+        if kidnap_every is not None and kidnap_every < 1:
+            raise ConfigError(f"--kidnap-every: expected a step count >= 1, got {kidnap_every}")
+        kidnap_every = kidnap_every or 0
+        if noise not in NOISE_NAMES:
+            raise ConfigError(f"--noise: expected one of {', '.join(NOISE_NAMES)}, got {noise!r}")
+        if odometry is None:
+            odometry = "body" if kidnap_every else "world"
+        if trajectories is None:
+            trajectories = default_trajectories(steps)
+        if emission_trajectories is None:
+            emission_trajectories = default_trajectories(steps, 1000, 10)
         opts = {"emission": {} if paper_budget else dict(STUDY_EMISSION_OPTIONS)}
         for name, o in parsed_options.items():
             opts.setdefault(name, {}).update(o)
         cfg = TrackingStudyConfig(trajectories=trajectories, seeds=seeds, steps=steps,
-                                  estimators=names, camera=camera, seed=seed,
+                                  estimators=names, camera=camera, seed=seed, noise=noise,
                                   estimator_options=opts,
-                                  trajectory_limits={"emission": emission_trajectories})
+                                  trajectory_limits={"emission": emission_trajectories},
+                                  kidnap_every=kidnap_every, odometry=odometry)
         from navbench.track.registry import uses_map
 
         needs_map = any(uses_map(n) for n in names)
@@ -116,19 +143,22 @@ def register(app: typer.Typer) -> None:
         level_ref, vmap, ref, res, stored = run_with_ui(body, json_mode=json_out)
         lvl_name = level_ref.name
         summary = summarise(res)
+        raw = raw_odometry_summary(res)
         if json_out:
             meta = {"level": lvl_name, "map": map_, "map_key": vmap.key, "study_key": ref.key,
                     "cached": ref.cached, "camera": camera, "trajectories": trajectories,
-                    "steps": steps, "seeds": seeds, "options": opts,
+                    "steps": steps, "seeds": seeds, "options": opts, "noise": noise,
+                    "odometry": odometry, "kidnap_every": kidnap_every, "raw_odometry": raw,
                     "trajectory_limits": cfg.trajectory_limits,
                     "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}
-            print_json({**summary, "meta": meta})
+            print_json(_finite({**summary, "meta": meta}))
             return
         from rich.table import Table
 
-        t = Table(title=escape(f"tracking on {lvl_name} ({trajectories} x {steps} steps, map {map_}, "
-                               f"camera {camera})"))
-        for col in ("estimator", "runs", "loc RMSE median (m)", "loc RMSE p99 (m)",
+        t = Table(title=escape(f"tracking on {lvl_name} ({trajectories} x {steps} steps, noise {noise}, "
+                               f"odometry {odometry}, map {map_}, camera {camera}"
+                               + (f", kidnap every {kidnap_every}" if kidnap_every else "") + ")"))
+        for col in ("estimator", "runs", "ATE median (m)", "ATE p99 (m)",
                     "< 0.1 m", "rot RMSE median (deg)", "step median (ms)"):
             t.add_column(col, justify="left" if col == "estimator" else "right")
         for name, s in summary.items():
@@ -136,9 +166,67 @@ def register(app: typer.Typer) -> None:
                       f"{100 * s['frac_loc_rmse_below_0_1m']:.0f} %", f"{s['rot_rmse_deg_median']:.3f}",
                       f"{s['step_ms_median']:.2f}")
         console.print(t)
+        console.print(f"ATE: translation RMSE without alignment (TUM / evo; the location RMSE). "
+                      f"Raw odometry (dead reckoning of the body-frame controls): ATE median "
+                      f"{raw['ate_m_median']:.4f} m, mean {raw['ate_m_mean']:.4f} m.", markup=False)
+        _print_health(summary)
         if stored:
             console.print(f"stored {stored['rows']} new tracking rows (run {stored['run_id']}, "
                           f"study {stored['study_key'][:12]}) in {stored['db']}", markup=False)
+
+
+def _finite(obj):
+    """``obj`` with every float nan replaced by None (strict JSON)."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, float) and obj != obj:
+        return None
+    return obj
+
+
+def default_trajectories(steps: int, budget: int = 3000, most: int = 30) -> int:
+    """A default trajectory count: ``budget`` steps in all (the default study's 30 x 100; its
+    emission tracker's 10 x 100), at least 1 and at most ``most``, so that any ``--steps``
+    keeps the default run time."""
+    return max(1, min(most, round(budget / max(int(steps), 1))))
+
+
+def raw_odometry_summary(res: dict) -> dict:
+    """Median and mean raw-odometry ATE (m) of the study's trajectories (nan for a study
+    stored before it was recorded)."""
+    import numpy as np
+
+    raw = res["trajectories"].get("raw_odom_ate_m")
+    if raw is None or not len(raw):
+        return {"ate_m_median": float("nan"), "ate_m_mean": float("nan")}
+    return {"ate_m_median": float(np.median(raw)), "ate_m_mean": float(np.mean(raw))}
+
+
+def _print_health(summary: dict) -> None:
+    """The kidnap / health table, for the estimators that have such figures."""
+    from rich.table import Table
+
+    rows = {n: s for n, s in summary.items() if "kidnaps" in s or "alarms_per_step" in s}
+    if not rows:
+        return
+    t = Table(title="kidnapped robot (recovered: location < 0.25 m and heading < 10 deg within "
+                    "5 steps; false alarm: an alarm at a pose within that tolerance; per step)")
+    cols = ("estimator", "kidnaps", "detected", "recovered <= 5 steps", "steps to recover (median)",
+            "alarms per step", "false alarms per step", "runs with a false alarm", "relocalisations")
+    for col in cols:
+        t.add_column(col, justify="left" if col == "estimator" else "right")
+
+    def pct(v):
+        return "-" if v is None or v != v else f"{100 * v:.1f} %"
+
+    for name, s in rows.items():
+        steps = s.get("recover_steps_median")
+        t.add_row(escape(name), str(s.get("kidnaps", "-")), pct(s.get("detected_frac")),
+                  pct(s.get("recovered_frac")), "-" if steps is None or steps != steps else f"{steps:.1f}",
+                  "-" if "alarms_per_step" not in s else f"{100 * s['alarms_per_step']:.2f} %",
+                  "-" if "false_alarms_per_step" not in s else f"{100 * s['false_alarms_per_step']:.2f} %",
+                  pct(s.get("false_alarm_trajectories_frac")), str(s.get("relocalizations", "-")))
+    console.print(t)
 
 
 def _check_estimators(names: tuple[str, ...], options: dict[str, dict]) -> None:

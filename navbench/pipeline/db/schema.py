@@ -70,7 +70,13 @@ class Run(Base):
 
 
 #: Nullable columns added to a version-1 layout after it shipped: (table, column).
-_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"), ("episodes", "condition_key"))
+_ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"),
+                  # issue 16: the cell without task set and estimator (a larger --tasks extends it)
+                  ("episodes", "condition_key"),
+                  # issue 14: raw odometry and the kidnapped-robot test of a tracking row
+                  ("tracking", "raw_odom_ate_m"), ("tracking", "kidnaps"),
+                  ("tracking", "kidnaps_detected"), ("tracking", "kidnaps_recovered"),
+                  ("tracking", "alarms"), ("tracking", "false_alarms"))
 #: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
 _PG_SCHEMA_LOCK = 0x6E617662656E6368
 
@@ -187,6 +193,15 @@ class TrackingRow(Base):
     estimate_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
     traj_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
     recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    # added within schema version 1 (issue 14; nullable, see _ADDED_COLUMNS). loc_rmse_m is
+    # the ATE (translation RMSE without alignment); raw_odom_ate_m that of the trajectory's raw
+    # odometry; kidnap counts (recovered: within 5 steps) and health alarms where they apply
+    raw_odom_ate_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    kidnaps: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    kidnaps_detected: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    kidnaps_recovered: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    alarms: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    false_alarms: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
 
 class BenchRow(Base):
@@ -218,7 +233,8 @@ _EPISODE_REQUIRED = (
 _TRACKING_FIELDS = (
     "study_key", "level", "map_key", "estimator", "estimator_options", "noise", "trajectory_id",
     "seed", "steps", "loc_rmse_m", "rot_rmse_deg", "step_ms_median", "render_ms", "estimate_ms",
-    "traj_key",
+    "traj_key", "raw_odom_ate_m", "kidnaps", "kidnaps_detected", "kidnaps_recovered", "alarms",
+    "false_alarms",
 )
 _TRACKING_REQUIRED = ("study_key", "level", "estimator", "trajectory_id", "seed")
 _BENCH_FIELDS = ("metric", "value", "unit", "device", "host", "cpu", "navbench_version")

@@ -88,6 +88,23 @@ def _load_map_file(path: Path):
     return load_world_model(path)
 
 
+#: Study-config fields added after studies were stored, with the defaults that leave them out of
+#: the cache key (so every study stored before them keeps its key).
+_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world"}
+
+
+def study_key_config(cfg) -> dict:
+    """The study config as hashed into the track-eval key: every field, except those of
+    :data:`_KEY_DEFAULTS` while at their default."""
+    from navbench.config import to_jsonable
+
+    d = to_jsonable(cfg)
+    for k, default in _KEY_DEFAULTS.items():
+        if d.get(k) == default:
+            d.pop(k, None)
+    return d
+
+
 def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
     """Run (or fetch) the tracking study ``cfg`` (a :class:`~navbench.track.study.TrackingStudyConfig`)
     on ``level`` with map ``vmap``; ``ref.meta`` holds the map key."""
@@ -101,5 +118,6 @@ def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
                                      progress=lambda done, total: update(done))
         save_study(results, d / STUDY_FILE)
 
-    path, key, cached = ctx.run("track-eval", cfg, {"level": level.key, "map": vmap.key}, compute)
+    path, key, cached = ctx.run("track-eval", study_key_config(cfg),
+                                {"level": level.key, "map": vmap.key}, compute)
     return Ref("track-eval", key, path / STUDY_FILE, cached, level.name, {"map_key": vmap.key})
