@@ -27,13 +27,11 @@ from navbench.worldmodel.tum import (
     _read_groundtruth,
     _read_list,
     _rot_to_quat,
+    MAX_TILT_DEG,
     planar_height_tilt,
 )
 from navbench.worldmodel.views import Views
 
-#: Largest camera tilt (deg) accepted for planar tracking: navbench's own exports are exact
-#: (0 up to the 9 printed decimals); a camera held by hand is tilted by several degrees.
-MAX_TILT_DEG = 1.0
 
 
 def pose_line(timestamp: str, T_wc: np.ndarray) -> str:
@@ -105,18 +103,15 @@ class Sequence:
 
 
 def read_sequence(directory, max_tilt_deg: float = MAX_TILT_DEG, max_dt: float = 0.02) -> Sequence:
-    """Read a TUM RGB-D directory for tracking: ``groundtruth.txt`` is tilt-checked first (an
-    error names its line), then :func:`~navbench.worldmodel.tum.import_views` reads and checks
-    the frames (associated within ``max_dt`` s)."""
+    """Read a TUM RGB-D directory for tracking: :func:`~navbench.worldmodel.tum.import_views`
+    reads and checks the frames (associated within ``max_dt`` s) and refuses a ground-truth pose
+    tilted more than ``max_tilt_deg`` (the error names its line), with the fit's tolerances."""
     from navbench.worldmodel.tum import import_views
 
     d = Path(directory)
     if not d.is_dir():
         raise ArtifactError(f"{d}: no such directory" if not d.exists() else f"{d}: not a directory")
-    gt_path = d / "groundtruth.txt"
-    if gt_path.is_file():
-        check_planar(_read_groundtruth(gt_path), gt_path, max_tilt_deg)
-    views = import_views(d, max_dt=max_dt)
+    views = import_views(d, max_dt=max_dt, max_tilt_deg=max_tilt_deg)
     times = np.asarray(views.meta.get("timestamps", []), dtype=np.float64)
     rgb_txt = d / "rgb.txt"
     raw = {k: line.split()[0] for k, line in enumerate(rgb_txt.read_text().splitlines(), 1)

@@ -30,7 +30,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", min=0, help="Odometry noise and pixel-sampling seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option KEY=VALUE "
                                          "(repeatable), e.g. -o optimizer=adam."),
-        max_tilt: float = typer.Option(1.0, "--max-tilt", min=0.0, max=180.0, help="Largest camera tilt from "
+        max_tilt: float = typer.Option(0.5, "--max-tilt", min=0.0, max=180.0, help="Largest camera tilt from "
                                        "planar (deg) accepted in the ground truth and odometry."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
         db: str = typer.Option(None, "--db", help=DB_HELP),

@@ -35,6 +35,7 @@ import numpy as np
 
 from navbench.errors import ConfigError
 from navbench.pipeline.artifacts import MAP_FILE
+from navbench.worldmodel.tum import MAX_TILT_DEG
 
 #: Estimators ``track-sequence`` accepts (``gt`` needs the truth at run time: nothing to test).
 SEQUENCE_ESTIMATORS = ("ours", "no-map", "dynamics", "emission")
@@ -52,7 +53,7 @@ class TrackSequenceConfig:
     odometry: str = "gt+mid"  # gt+NOISE (simulated from the ground truth) or a TUM odometry file
     seed: int = 0  # odometry noise and the estimator's pixel sampling
     options: dict = field(default_factory=dict)  # the estimator's keyword options
-    max_tilt_deg: float = 1.0  # largest camera tilt from planar accepted (ground truth, odometry)
+    max_tilt_deg: float = MAX_TILT_DEG  # largest camera tilt from planar accepted (ground truth, odometry)
     max_dt: float = 0.02  # association of rgb, depth, ground truth and odometry timestamps
 
     def __post_init__(self):
