@@ -79,10 +79,12 @@ from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, camera_pose
 from navbench.sim.dynamics import predict
 from navbench.track.base import check_update
+from navbench.track.lie import se3_inverse
 from navbench.track.eq7 import (
     Reference,
     TrackerConfig,
     accumulate,
+    accumulate_values,
     linearization,
     make_config,
     pixel_table,
@@ -122,16 +124,19 @@ def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
     obs = sample_observation(frame, ref.intr, sub)
     n_half = int(math.floor(cfg.yaw_search_deg / cfg.yaw_search_step_deg + 1e-9))
     best, best_cost = pred.copy(), np.inf
+    Ti = se3_inverse(ref.T_wc)
+    cands, lins = [], []
     for k in range(-n_half, n_half + 1):
         cand = pred.copy()
         cand[2] += math.radians(k * cfg.yaw_search_step_deg)
-        state = _initial_state(cfg.param, cand, camera_height)
-        Trel, B, b = linearization(cfg.param, state, ref.T_wc, camera_height)
-        acc = accumulate(ref, obs, Trel, B, b, cfg)
-        kept = acc.counts[0]
+        cands.append(cand)
+        lins.append(linearization(cfg.param, _initial_state(cfg.param, cand, camera_height),
+                                  ref.T_wc, camera_height, Ti))
+    values, counts = accumulate_values(ref, obs, lins, cfg)  # = accumulate() per candidate
+    for cand, value, kept in zip(cands, values.tolist(), counts[:, 0].tolist()):
         if kept < 0.3 * len(sub):
             continue
-        cost = acc.value / kept
+        cost = value / kept
         if cost < best_cost:
             best, best_cost = cand, cost
     return best
@@ -151,10 +156,11 @@ def align_adam(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
     b1, b2 = cfg.adam_betas
     m = np.zeros_like(lr)
     v = np.zeros_like(lr)
+    Ti = se3_inverse(ref.T_wc)
     for i in range(cfg.adam_steps):
         row = table[i % len(table), : cfg.adam_pixels]
         obs = sample_observation(frame, ref.intr, row)
-        Trel, B, b = linearization(param, state, ref.T_wc, camera_height)
+        Trel, B, b = linearization(param, state, ref.T_wc, camera_height, Ti)
         acc = accumulate(ref, obs, Trel, B, b, cfg)
         _, pg, _ = prior_terms(param, state, pred, cfg, camera_height)
         g = cfg.pixel_scale / len(row) * acc.grad + pg
@@ -184,9 +190,10 @@ def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: Trac
     state = _initial_state(param, start, camera_height)
     scale = cfg.pixel_scale / max(len(idx), 1)
     ntr = 2 if param == "planar" else 3
+    Ti = se3_inverse(ref.T_wc)
     for it in range(cfg.gn_iters):
         geo_only = it < cfg.gn_geo_iters
-        Trel, B, b = linearization(param, state, ref.T_wc, camera_height)
+        Trel, B, b = linearization(param, state, ref.T_wc, camera_height, Ti)
         acc = accumulate(ref, obs, Trel, B, b, cfg, photometric=not geo_only)
         _, pg, pH = prior_terms(param, state, pred, cfg, camera_height)
         try:

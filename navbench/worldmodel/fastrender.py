@@ -266,14 +266,16 @@ class FastRenderer:
     ``step``: ray sample spacing Delta (m), default ``vmap.meta['step']`` or 0.1 m;
     ``max_range`` (m): the last sample is at ``round(max_range / step) * step``.
     ``parallel``: rows on numba's threads; ``None`` = only for images of at least
-    :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster).
+    :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster), and only
+    when numba may use more than one thread (pool workers use one).
     """
 
     def __init__(self, vmap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                  max_range: float = MAX_RANGE, step: float | None = None,
                  parallel: bool | None = None):
-        if parallel is None:
-            parallel = intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+        if parallel is None:  # one numba thread (a pool worker): the serial kernel, same pixels
+            parallel = (intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+                        and nb.get_num_threads() > 1)
         self._kernel = render_kernel if parallel else render_kernel_serial
         self.vmap = vmap
         self.intrinsics = intrinsics
