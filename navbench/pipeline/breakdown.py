@@ -12,6 +12,10 @@ the run (:data:`navbench.nav.timing.TIMING_KEYS`: ``sim``, ``render``, ``estimat
 outside the components (``wall x workers - components``: simulator and estimator set-up,
 transfers, idle workers at the end of the run).
 
+Estimators (kind ``estimator``): the same component seconds split by the estimator whose
+episodes they were (``count``: its steps), so the cost of ``ours`` and ``no-map`` steps shows
+beside the frame-less ``dynamics``.
+
 :func:`breakdown_rows` builds the rows (plain dicts: ``kind, name, seconds, count, cached``), the
 results database stores them with the run (:meth:`ResultsDB.add_run_timings
 <navbench.pipeline.db.ResultsDB.add_run_timings>`, table ``run_timings``), :func:`format_breakdown`
@@ -24,7 +28,7 @@ from typing import Any, Iterable
 
 from navbench.nav.timing import TIMING_KEYS
 
-KINDS = ("stage", "component")
+KINDS = ("stage", "component", "estimator")
 
 
 def stage_rows(timings: Iterable[tuple[str, float, bool]]) -> list[dict]:
@@ -59,6 +63,9 @@ def breakdown_rows(stage_timings: Iterable[tuple[str, float, bool]], navigation:
                      "count": steps, "cached": 0})
     rows.append({"kind": "component", "name": "store", "seconds": float(getattr(navigation, "store_s", 0.0)),
                  "count": int(navigation.ran), "cached": 0})
+    for name, (seconds, n) in (getattr(navigation, "estimator_s", {}) or {}).items():
+        rows.append({"kind": "estimator", "name": str(name), "seconds": float(seconds), "count": int(n),
+                     "cached": 0})
     if navigation_s is not None and navigation.ran:
         busy = sum(float(comp.get(k, 0.0)) for k in TIMING_KEYS)
         rows.append({"kind": "component", "name": "other",
@@ -71,7 +78,7 @@ def format_breakdown(rows: list[dict]) -> str:
     """The breakdown as a plain-text table: stages with their share of the stages' total, then
     components with their share of the components' total and milliseconds per step."""
     lines = []
-    for kind, title in (("stage", "stage"), ("component", "episode component")):
+    for kind, title in (("stage", "stage"), ("component", "episode component"), ("estimator", "estimator")):
         part = [r for r in rows if r["kind"] == kind]
         if not part:
             continue
@@ -82,7 +89,7 @@ def format_breakdown(rows: list[dict]) -> str:
             if kind == "stage":
                 note = f"{r['cached']} cached" if r["cached"] else ""
             else:
-                steps = r["count"] if r["name"] in TIMING_KEYS else 0
+                steps = r["count"] if kind == "estimator" or r["name"] in TIMING_KEYS else 0
                 note = f"{1e3 * r['seconds'] / steps:.2f} ms/step" if steps else \
                     ("per episode" if r["count"] else "")
             lines.append(f"{r['name']:<20} {r['seconds']:>10.2f} {share:>6.1f}% {r['count']:>8}  {note}".rstrip())

@@ -20,7 +20,8 @@ def test_stage_rows_sum_calls_by_stage_in_first_seen_order():
 
 def test_components_and_other_are_hand_computed():
     nav = NavigationSummary(cells=[], total=4, already_done=1, ran=3,
-                            component_s={"sim": 1.0, "render": 2.0, "estimate": 0.5}, steps=100, store_s=0.25)
+                            component_s={"sim": 1.0, "render": 2.0, "estimate": 0.5}, steps=100, store_s=0.25,
+                            estimator_s={"ours": [3.25, 60], "dynamics": [0.25, 40]})
     rows = breakdown_rows([("fit-map", 3.0, False)], nav, navigation_s=2.5, workers=2)
     by = {(r["kind"], r["name"]): r for r in rows}
     assert by["stage", "run-navigation"] == {"kind": "stage", "name": "run-navigation", "seconds": 2.5,
@@ -28,8 +29,11 @@ def test_components_and_other_are_hand_computed():
     assert [r["name"] for r in rows if r["kind"] == "component"] == [*TIMING_KEYS, "store", "other"]
     assert by["component", "plan"]["seconds"] == 0.0 and by["component", "render"]["count"] == 100
     assert by["component", "other"]["seconds"] == 2.5 * 2 - 3.5  # worker time outside the components
+    assert by["estimator", "ours"] == {"kind": "estimator", "name": "ours", "seconds": 3.25, "count": 60,
+                                       "cached": 0}
     text = format_breakdown(rows)
     assert "render" in text and "20.00 ms/step" in text and "fit-map" in text
+    assert "54.17 ms/step" in text  # ours: 3.25 s over 60 steps
 
 
 #: The tiny level on its voxelized true geometry (a tiny fit plans nothing): episodes with steps.
@@ -62,6 +66,11 @@ def test_run_profile_stores_and_returns_the_breakdown(project):
     nav = {r["name"]: r for r in result.breakdown if r["kind"] == "component"}
     assert nav["sim"]["count"] == result.navigation.steps > 0
     assert nav["render"]["seconds"] > 0 and nav["estimate"]["seconds"] > 0  # ours renders and tracks
+    est = {r["name"]: r for r in result.breakdown if r["kind"] == "estimator"}
+    assert set(est) == {"dynamics", "ours"}
+    assert est["ours"]["count"] + est["dynamics"]["count"] == result.navigation.steps
+    assert est["ours"]["seconds"] + est["dynamics"]["seconds"] == pytest.approx(
+        sum(nav[k]["seconds"] for k in TIMING_KEYS))
     with ResultsDB(url) as db:
         stored = db.run_timings_frame(result.run_id)
     assert len(stored) == len(result.breakdown)

@@ -34,6 +34,7 @@ class NavigationSummary:
     # the breakdown of the simulated episodes (pipeline.breakdown): seconds per timing
     # component summed over their steps, the steps, and the parent's storing time
     component_s: dict = field(default_factory=dict)
+    estimator_s: dict = field(default_factory=dict)  # estimator -> [seconds of its steps, steps]
     steps: int = 0
     store_s: float = 0.0
     seconds: float | None = None  # the stage's wall-clock time and the executor's workers
@@ -168,9 +169,12 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
         t_store = time.perf_counter()
         batch = []
         for job, record, score in triples:
+            per = summary.estimator_s.setdefault(job.cell.estimator, [0.0, 0])
             for k, v in (record.timings_ms or {}).items():
                 summary.component_s[k] = summary.component_s.get(k, 0.0) + float(sum(v)) / 1e3
+                per[0] += float(sum(v)) / 1e3
             summary.steps += int(record.steps)
+            per[1] += int(record.steps)
             key = _store_trajectory(ctx, job, record)
             ctx.used.append(("episode", key))
             if _triple(job) in restoring:
