@@ -122,6 +122,9 @@ class Reference(NamedTuple):
     valid: np.ndarray  # (H, W) bool
     T_wc: np.ndarray  # (4, 4) camera pose the reference was seen from
     intr: Intrinsics
+    # a lazy reference (navbench.worldmodel.fastrender.LazyFrame) whose fill(points, ok, Trels)
+    # renders the pixels the kernel will read before it reads them; None: rgb/depth/valid are full
+    lazy: Any = None
 
 
 def prepare_reference(frame: Frame, intr: Intrinsics, T_wc: np.ndarray) -> Reference:
@@ -515,9 +518,11 @@ def accumulate_values(ref: Reference, obs: Observation, lins: list, cfg: Tracker
     """The ``value`` and ``counts`` of :func:`accumulate` (photometric term on) for every
     ``(Trel, B, b)`` of ``lins`` in one compiled call: ``(N,)`` values, ``(N, 2)`` counts."""
     i = ref.intr
+    Trels = np.ascontiguousarray(np.stack([t for t, _, _ in lins]))
+    if ref.lazy is not None:
+        ref.lazy.fill(obs.points, obs.ok, Trels)
     return _accumulate_many(ref.rgb, ref.depth, ref.valid, float(i.fx), float(i.fy),
-                            float(i.cx), float(i.cy), obs.points, obs.rgb, obs.ok,
-                            np.ascontiguousarray(np.stack([t for t, _, _ in lins])),
+                            float(i.cx), float(i.cy), obs.points, obs.rgb, obs.ok, Trels,
                             np.ascontiguousarray(np.stack([B for _, B, _ in lins])),
                             np.ascontiguousarray(np.stack([b for _, _, b in lins])),
                             float(cfg.photo_threshold), float(cfg.geo_threshold),
@@ -543,6 +548,8 @@ def accumulate(ref: Reference, obs: Observation, Trel: np.ndarray, B: np.ndarray
     ``photometric=False`` drops the photometric term (point-to-plane only).
     """
     i = ref.intr
+    if ref.lazy is not None:
+        ref.lazy.fill(obs.points, obs.ok, np.ascontiguousarray(Trel)[None])
     out = _accumulate_kernel(ref.rgb, ref.depth, ref.valid, float(i.fx), float(i.fy),
                              float(i.cx), float(i.cy), obs.points, obs.rgb, obs.ok,
                              np.ascontiguousarray(Trel), np.ascontiguousarray(B),

@@ -96,6 +96,13 @@ from navbench.track.eq7 import (
 )
 
 
+#: Render the map's reference image of ``ours`` lazily: only the pixels eq. 7 reads, when it
+#: first reads them (:class:`navbench.worldmodel.fastrender.LazyFrame`; the estimates are
+#: bit-identical to rendering the whole image, tests/speed/test_fast_paths.py). False renders
+#: every pixel first (the reference implementation).
+LAZY_REFERENCE = True
+
+
 # ------------------------------------------------------------------------------ optimisers
 
 def _param_lr(param: str, lr: tuple[float, float]) -> np.ndarray:
@@ -279,10 +286,32 @@ class _PredictionToObservation:
         self._prev_frame = frame0
         self.last_timing = {}
 
+    def _lazy_renderer(self):
+        """The fast map renderer behind ``self._render`` when the reference may be rendered
+        lazily (:data:`LAZY_REFERENCE`; the renderer is a ``FastRenderer.render`` of this
+        camera), else None."""
+        from navbench.worldmodel.fastrender import FastRenderer
+
+        fr = getattr(self._render, "__self__", None)
+        if (LAZY_REFERENCE and isinstance(fr, FastRenderer)
+                and getattr(self._render, "__func__", None) is FastRenderer.render
+                and fr.intrinsics == self.intrinsics):
+            return fr
+        return None
+
     def _reference(self) -> tuple[Reference, float]:
         """The reference for the current ``z*_{t-1}`` (rendered at most once per pose)."""
         t0 = time.perf_counter()
         if self._ref is None or not np.array_equal(self._ref_pose, self.pose):
+            fr = self._lazy_renderer() if self.uses_map else None
+            if fr is not None:  # only the pixels eq. 7 reads, rendered as it reads them
+                from navbench.worldmodel.fastrender import LazyFrame
+
+                lazy = LazyFrame(fr, camera_pose(self.pose, fr.camera_height))
+                self._ref = Reference(lazy.rgb, lazy.depth, lazy.valid,
+                                      camera_pose(self.pose, self.camera_height), self.intrinsics, lazy)
+                self._ref_pose = self.pose.copy()
+                return self._ref, (time.perf_counter() - t0) * 1e3
             if self.uses_map:
                 frame = self._render(self.pose)
             else:
@@ -299,12 +328,17 @@ class _PredictionToObservation:
         t0 = time.perf_counter()
         ref, ms_render = self._reference()
         t1 = time.perf_counter()
+        lazy_s = ref.lazy.seconds if ref.lazy is not None else 0.0
         pred = np.asarray(predict(self.pose, control), dtype=np.float64)
         est = align(ref, frame, pred, self.config, self.seed, self.camera_height)
         t2 = time.perf_counter()
         self.pose = est
         self._prev_frame = frame
         prep_ms = (t1 - t0) * 1e3 - ms_render
+        if ref.lazy is not None:  # the lazy reference rendered during the alignment
+            lazy_ms = (ref.lazy.seconds - lazy_s) * 1e3
+            ms_render += lazy_ms
+            t2 -= lazy_ms / 1e3
         self.last_timing = {"render": ms_render, "estimate": prep_ms + (t2 - t1) * 1e3}
         return est.copy()
 

@@ -120,3 +120,68 @@ def test_estimators_without_frames_give_the_same_episode_without_a_camera(estima
     assert a.steps > 0 and a.end_reason == b.end_reason and a.collided == b.collided
     for f in ("true_poses", "est_poses", "controls", "plan"):
         np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+
+
+@pytest.mark.parametrize("optimizer", ["gauss-newton", "adam"])
+def test_lazy_reference_tracks_bit_identically_to_the_full_render(monkeypatch, optimizer):
+    """``ours`` renders only the reference pixels eq. 7 reads (LazyFrame): the same estimates,
+    bit for bit, as rendering every pixel first, along a noisy walk at the paper camera."""
+    from navbench.geometry import PAPER_CAMERA
+    from navbench.sim.camera import RaycastCamera
+    from navbench.sim.dynamics import Control, apply_dynamics
+    from navbench.track.registry import make_estimator
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+
+    level = small_level()
+    vm = voxelize_level(level, grid_for_level(level, shape=(60, 45, 16)))
+    cam = RaycastCamera(level, PAPER_CAMERA)
+    rng = np.random.default_rng(3)
+    poses = [np.array([1.2, 1.0, 0.5])]
+    controls = []
+    for t in range(6 if optimizer == "adam" else 12):
+        u = Control(math.radians(8.0 * (-1) ** (t // 4)), poses[-1][2], 0.05 * (t % 3))
+        controls.append(u)
+        poses.append(apply_dynamics(poses[-1], u, rng.normal(0, 0.05), rng.normal(0, 0.01)))
+    frames = [cam.render(p) for p in poses]
+
+    def track(lazy: bool):
+        monkeypatch.setattr(ours, "LAZY_REFERENCE", lazy)
+        est = make_estimator("ours", vmap=vm, intrinsics=PAPER_CAMERA, optimizer=optimizer,
+                             **({"adam_steps": 20} if optimizer == "adam" else {}))
+        est.reset(poses[0], frames[0])
+        out, fractions = [], []
+        for u, f in zip(controls, frames[1:]):
+            out.append(est.update(u, f))
+            if est._ref.lazy is not None:
+                fractions.append(est._ref.lazy.done.mean())
+        return np.array(out), fractions
+
+    full, none = track(False)
+    lazy, fractions = track(True)
+    assert not none and len(fractions) == len(controls)
+    np.testing.assert_array_equal(lazy, full)
+    assert max(fractions) < 1.0  # it rendered less than the whole image
+
+
+def test_lazy_pixels_equal_the_full_frames_pixels():
+    """Every pixel a LazyFrame renders is the full frame's pixel as prepare_reference makes it."""
+    from navbench.geometry import PAPER_CAMERA
+    from navbench.worldmodel.fastrender import FastRenderer, LazyFrame
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+
+    level = small_level()
+    vm = voxelize_level(level, grid_for_level(level, shape=(60, 45, 16)))
+    fr = FastRenderer(vm, PAPER_CAMERA)
+    pose = np.array([1.2, 1.0, 0.5])
+    T = camera_pose(pose, fr.camera_height)
+    ref = eq7.prepare_reference(fr.render(pose), PAPER_CAMERA, T)
+    lazy = LazyFrame(fr, T)
+    idx = ours.gn_pixels(*PAPER_CAMERA.shape, 3000, 0)
+    obs = eq7.sample_observation(fr.render(pose + [0.02, 0.0, 0.05]), PAPER_CAMERA, idx)
+    lazy.fill(obs.points, obs.ok, np.stack([eq7.linearization("planar", pose + [0.02, 0.0, d], T,
+                                                              fr.camera_height)[0] for d in (0.0, 0.05)]))
+    m = lazy.done
+    assert 0.05 < m.mean() < 0.9
+    np.testing.assert_array_equal(lazy.rgb[m], ref.rgb[m])
+    np.testing.assert_array_equal(lazy.depth[m], ref.depth[m])
+    np.testing.assert_array_equal(lazy.valid[m], ref.valid[m])
