@@ -2,7 +2,8 @@
 
     python scripts/agent_step_compare.py OLD_ROOT NEW_ROOT [--camera paper] [--repeats 3] [--tasks 3]
 
-Each repeat runs, for each checkout in turn (alternating, so both see the same machine load),
+Each repeat runs, for each checkout in turn (alternating which goes first, so both see the same
+machine load; the simulator step, whose code is the same in both, shows the noise floor),
 a fresh process with one numba thread (as a pool worker) that runs the same seeded episodes
 (house-1 on its voxelized true geometry, mid noise, ``--estimators``) and prints the summed
 timing components. Prints the median over repeats of the agent step (render + estimate + plan +
@@ -74,8 +75,8 @@ def main() -> int:
     ap.add_argument("--estimators", default="ours")
     a = ap.parse_args()
     got: dict[str, list[dict]] = {"old": [], "new": []}
-    for _ in range(a.repeats):
-        for which in ("old", "new"):
+    for rep in range(a.repeats):  # old first, then new first: a load that drifts cancels out
+        for which in (("old", "new") if rep % 2 == 0 else ("new", "old")):
             got[which].append(run(getattr(a, which), a.camera, a.tasks, a.estimators))
     load = os.getloadavg()[0]
 
