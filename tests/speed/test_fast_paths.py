@@ -144,6 +144,10 @@ def test_lazy_reference_tracks_bit_identically_to_the_full_render(monkeypatch, o
         poses.append(apply_dynamics(poses[-1], u, rng.normal(0, 0.05), rng.normal(0, 0.01)))
     frames = [cam.render(p) for p in poses]
 
+    import numba
+
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 1)  # as in a pool worker: serial renders
+
     def track(lazy: bool):
         monkeypatch.setattr(ours, "LAZY_REFERENCE", lazy)
         est = make_estimator("ours", vmap=vm, intrinsics=PAPER_CAMERA, optimizer=optimizer,
@@ -185,3 +189,20 @@ def test_lazy_pixels_equal_the_full_frames_pixels():
     np.testing.assert_array_equal(lazy.rgb[m], ref.rgb[m])
     np.testing.assert_array_equal(lazy.depth[m], ref.depth[m])
     np.testing.assert_array_equal(lazy.valid[m], ref.valid[m])
+
+
+def test_lazy_reference_only_where_it_is_faster(monkeypatch):
+    """Lazy only for a serial renderer (one numba thread) and an image of the paper's size."""
+    import numba
+
+    from navbench.geometry import PAPER_CAMERA
+    from navbench.track.registry import make_estimator
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+
+    level = small_level()
+    vm = voxelize_level(level, grid_for_level(level, shape=(30, 24, 10)))
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 1)
+    assert make_estimator("ours", vmap=vm, intrinsics=PAPER_CAMERA)._lazy_renderer() is not None
+    assert make_estimator("ours", vmap=vm, intrinsics=HALF_CAMERA)._lazy_renderer() is None
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
+    assert make_estimator("ours", vmap=vm, intrinsics=PAPER_CAMERA)._lazy_renderer() is None
