@@ -60,20 +60,28 @@ print(json.dumps({"sums_ms": sums, "steps": steps, "wall_s": wall, "digest": dig
 def run(root: str, camera: str, tasks: int, ests: str) -> dict:
     env = {**os.environ, "PYTHONPATH": root, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "NUMBA_CACHE_DIR": os.path.join(root, ".numba_cache")}
-    out = subprocess.run([sys.executable, "-c", CHILD, camera, str(tasks), ests], cwd=root, env=env,
-                         check=True, capture_output=True, text=True).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    res = subprocess.run([sys.executable, "-c", CHILD, camera, str(tasks), ests], cwd=root, env=env,
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        last = (res.stderr.strip().splitlines() or ["no output"])[-1]
+        raise SystemExit(f"error: the episodes failed in {root}: {last}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("old")
     ap.add_argument("new")
-    ap.add_argument("--camera", default="paper")
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--tasks", type=int, default=3)
+    ap.add_argument("--camera", default="paper", choices=("half", "paper"))
+    ap.add_argument("--repeats", type=int, default=3, choices=range(1, 101), metavar="1..100")
+    ap.add_argument("--tasks", type=int, default=3, choices=range(1, 33), metavar="1..32")
     ap.add_argument("--estimators", default="ours")
     a = ap.parse_args()
+    for which in ("old", "new"):
+        if not os.path.isfile(os.path.join(getattr(a, which), "navbench", "__init__.py")):
+            print(f"error: {which}: {getattr(a, which)} is not a navbench checkout (no navbench/__init__.py)",
+                  file=sys.stderr)
+            return 2
     got: dict[str, list[dict]] = {"old": [], "new": []}
     for rep in range(a.repeats):  # old first, then new first: a load that drifts cancels out
         for which in (("old", "new") if rep % 2 == 0 else ("new", "old")):

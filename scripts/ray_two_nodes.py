@@ -63,6 +63,15 @@ def main() -> int:
     a = ap.parse_args()
     os.environ["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
     os.environ.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    if a.address:  # a wrong address fails now, not after the local run
+        from navbench.errors import NavbenchError
+        from navbench.pipeline.executor import check_reachable
+
+        try:
+            check_reachable(a.address)
+        except NavbenchError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
     tmp = Path(tempfile.mkdtemp(prefix="navbench-ray-"))
     cluster = None
     try:
