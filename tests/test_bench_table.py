@@ -31,6 +31,8 @@ PINNED_METRIC_KEYS = [
     "emission_ours_ratio_half", "emission_ours_ratio_paper", "control_step_ms_half",
     "control_step_hz_half", "control_step_ms_paper", "control_step_hz_paper",
     "e2e_episodes_per_min", "e2e_steps_per_s",
+    # issue 17: appended
+    "agent_step_ms_half", "agent_step_ms_paper", "e2e_episodes_per_min_paper",
 ]
 #: The other top-level keys of the result (host, map, config, per-key tables ...).
 PINNED_OTHER_KEYS = {
@@ -48,14 +50,17 @@ PINNED_PROGRESS = [
     *(f"tracking {p} (half)" for p in ("ours", "ours_adam", "ours_gauss_newton", "no_map", "emission")),
     "record a walk (paper)",
     *(f"tracking {p} (paper)" for p in ("ours", "ours_adam", "ours_gauss_newton", "no_map", "emission")),
-    "control step (half)", "control step (paper)", "end to end (2 tasks x 1 estimators, 2 workers)", "done",
+    "control step (half)", "control step (paper)", "end to end (2 tasks x 1 estimators, 2 workers)",
+    "agent step (half)", "agent step (paper)", "end to end (2 tasks x 1 estimators, 2 workers), paper camera",
+    "done",
 ]
 
 
 def test_metric_keys_are_the_table_and_pinned():
     assert metric_keys() == [row.key for row in TABLE] == PINNED_METRIC_KEYS
     assert [t.key for t in TARGETS] == ["render_ms_paper", "track_ms_ours_paper", "control_step_hz_paper",
-                                        "control_step_hz_half", "emission_ours_ratio_half", "fit_10k_steps_s"]
+                                        "control_step_hz_half", "emission_ours_ratio_half", "fit_10k_steps_s",
+                                        "agent_step_ms_paper", "control_step_hz_paper"]
 
 
 @pytest.fixture
@@ -113,6 +118,10 @@ def test_the_loop_gives_the_pinned_layout(fake_timers):
     n_of = {name: args[-1] if name != "time_tracking" else args[5] for name, args, _ in fake_timers
             if name in ("time_sim_step", "time_fit_step", "time_tracking", "time_control_step")}
     assert n_of == {"time_sim_step": 250, "time_fit_step": 3, "time_tracking": 5, "time_control_step": 10}
+    # the agent step: the control step's timer without the simulator's component
+    agent = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("exclude")]
+    assert len(agent) == 2 and all(kw["exclude"] == ("sim",) for kw in agent)
+    assert result["e2e_episodes_per_min_paper"] == 80.0
 
 
 def test_e2e_and_estimator_conditions(fake_timers, monkeypatch):

@@ -41,6 +41,9 @@ TARGETS: tuple[Target, ...] = (
            "emission / ours step time, equal pixel budget >= 4"),
     Target("fit_10k_steps_s", "<=", 180.0,
            "fit-map 10 000 steps <= 3 min (extrapolated from one step)"),
+    # issue #17: the agent's own step (without the simulator's camera) and the rate with it
+    Target("agent_step_ms_paper", "<=", 8.0, "agent step (render + track + plan + control), paper camera <= 8 ms"),
+    Target("control_step_hz_paper", ">=", 75.0, "full control step, paper camera >= 75 Hz"),
 )
 
 TRACKERS = (  # (key part, estimator name, options, label)
@@ -186,17 +189,18 @@ def _e2e_progress(ctx: BenchContext) -> str:
     return f"end to end ({tasks} tasks x {len(est)} estimators, {_e2e_workers(ctx)} workers)"
 
 
-def _e2e_run(ctx: BenchContext) -> timers.Throughput:
+def _e2e_run(ctx: BenchContext, camera: str = "half") -> timers.Throughput:
     tasks, est = e2e_plan(ctx)
     return timers.time_navigation(Path(ctx.level_file), ctx.vmap,
                                   timers.bench_tasks(ctx.level, ctx.vmap, tasks, ctx.seed + 1),
-                                  est, _e2e_workers(ctx), camera="half", noise="mid", seed=ctx.seed)
+                                  est, _e2e_workers(ctx), camera=camera, noise="mid", seed=ctx.seed)
 
 
 #: Inputs that several rows use, built once on first use: name -> (progress label, builder).
 SHARED: dict[str, tuple[Callable[[BenchContext], str], Callable[[BenchContext], Any]]] = {
     **{f"walk_{cam}": _walk(cam) for cam in CAMERA_NAMES},
     "e2e": (_e2e_progress, _e2e_run),
+    "e2e_paper": (lambda ctx: _e2e_progress(ctx) + ", paper camera", lambda ctx: _e2e_run(ctx, "paper")),
 }
 
 
@@ -305,17 +309,18 @@ def _hz(cam: str) -> Callable[[BenchContext, int], Reading]:
     return run
 
 
-def _e2e(per: str) -> Callable[[BenchContext, int], Reading]:
-    """Episodes per minute or steps per second of the shared end-to-end run."""
+def _e2e(per: str, camera: str = "half") -> Callable[[BenchContext, int], Reading]:
+    """Episodes per minute or steps per second of the shared end-to-end run (``camera``)."""
     def run(ctx: BenchContext, _n: int) -> Reading:
-        tp = ctx.use("e2e")
+        tp = ctx.use("e2e" if camera == "half" else f"e2e_{camera}")
         tasks, est = e2e_plan(ctx)
         note = (f"run-navigation stage: {tp.episodes} episodes ({tasks} tasks x "
-                f"{', '.join(est)}), {tp.steps} steps, mid noise, half camera, {tp.workers} local "
+                f"{', '.join(est)}), {tp.steps} steps, mid noise, {camera} camera, {tp.workers} local "
                 f"workers, {tp.seconds:.1f} s after a warm-up pass")
         if per == "episodes":
+            at = "" if camera == "half" else f", {camera} camera"
             return Reading(value=60.0 * tp.episodes / tp.seconds if tp.episodes else None, note=note,
-                           label=f"episodes per minute ({tp.workers} workers)")
+                           label=f"episodes per minute ({tp.workers} workers{at})")
         return Reading(value=tp.steps / tp.seconds if tp.steps else None, note=note,
                        label=f"episode steps per second ({tp.workers} workers)")
 
@@ -410,6 +415,18 @@ TABLE: tuple[Measurement, ...] = (
                 unit="episodes/min", needs=_e2e_why),
     Measurement("e2e_steps_per_s", "end to end", "episode steps per second", _e2e("steps"),
                 unit="steps/s", needs=_e2e_why),
+    # issue #17: the agent's own step (the control step without the simulator's step and
+    # camera), and whole episodes at the paper camera
+    *(Measurement(f"agent_step_ms_{cam}", "control", f"agent step (ours, no simulator), {cam}",
+                  lambda ctx, n, cam=cam: timers.time_control_step(ctx.level, ctx.vmap, CAMERAS[cam], n,
+                                                                   seed=ctx.seed, budget_s=ctx.budget,
+                                                                   exclude=("sim",)),
+                  repeats=lambda n, _quick: max(n, 10), needs=_estimator_why("ours", _OURS_NA),
+                  progress=f"agent step ({cam})",
+                  note="run_episode per-step sum without the simulator: controller + tracking with the "
+                       "map render + A* when (re)planning; mid noise") for cam in CAMERA_NAMES),
+    Measurement("e2e_episodes_per_min_paper", "end to end", "episodes per minute, paper camera",
+                _e2e("episodes", "paper"), unit="episodes/min", needs=_e2e_why),
 )
 
 

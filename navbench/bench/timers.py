@@ -302,12 +302,14 @@ def bench_tasks(level, vmap, count: int, seed: int = 0) -> list:
 
 
 def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup: int = 3, seed: int = 0,
-                      estimator: str = "ours", noise: str = "mid", budget_s: float | None = None) -> list[float]:
+                      estimator: str = "ours", noise: str = "mid", budget_s: float | None = None,
+                      exclude: tuple[str, ...] = ()) -> list[float]:
     """One full time step of :func:`navbench.nav.episode.run_episode` with ``estimator`` (its
     default options, as navigation runs it): controller, simulator step with its RGB-D
     observation, tracking with the map render, and A* when (re)planning -- the per-step sum of
     the episode's recorded component timings. Episodes over seeded tasks run until ``repeats``
-    steps are in (or ``budget_s`` is spent); one short episode of ``warmup`` steps runs first."""
+    steps are in (or ``budget_s`` is spent); one short episode of ``warmup`` steps runs first.
+    ``exclude``: timing components left out of the sum (``("sim",)``: the agent's own step)."""
     from dataclasses import replace
 
     from navbench.nav.episode import EpisodeConfig, run_episode
@@ -326,7 +328,8 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
         cfg = replace(EpisodeConfig(), max_steps=max_steps)
         rec = run_episode(level, occ2d, xs, ys, task, est, sim, config=cfg, planner_map=pm)
         t = rec.timings_ms
-        return np.sum([np.asarray(t[k], dtype=np.float64) for k in t], axis=0) if rec.steps else np.zeros(0)
+        parts = [np.asarray(t[k], dtype=np.float64) for k in t if k not in exclude]
+        return np.sum(parts, axis=0) if rec.steps else np.zeros(0)
 
     episode(tasks[-1], max(1, warmup), seed + 10_000)
     out: list[float] = []

@@ -129,8 +129,11 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
              progress: Progress | None = None) -> tuple[list["LevelInputs"], "NavigationSummary"]:
     """Build (or fetch) every level's inputs, then run the episodes the database lacks.
 
-    Returns ``(level inputs, NavigationSummary)``.
+    Returns ``(level inputs, NavigationSummary)``; the summary's ``seconds`` and ``workers`` are
+    the navigation stage's wall-clock time and the executor's worker count (the breakdown's).
     """
+    import time
+
     from navbench.pipeline.executor import make_executor
     from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
 
@@ -150,8 +153,11 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
             bar["advance"](n)
 
     with make_executor(executor, profile.workers, address) as ex:
+        t0 = time.perf_counter()
         summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
                                        on_progress=on_progress, on_total=on_total)
+        summary.seconds = time.perf_counter() - t0
+        summary.workers = int(getattr(ex, "workers", None) or 1)
     ctx.log(f"run-navigation: {summary.total} episodes in {len(summary.cells)} cells: "
             f"{summary.already_done} already stored, {summary.from_cache} from stored trajectories, "
             f"{summary.ran} run now")
@@ -166,7 +172,9 @@ class RunResult:
     ``inputs``: each level's level, map and task-set references; ``navigation``: episode counts;
     ``score`` / ``report``: the score and report artifacts (``None`` when not run);
     ``report_path``: the published report's ``index.html`` (or the cached one when not
-    published); ``refs``: every (stage, key) the run touched.
+    published); ``refs``: every (stage, key) the run touched; ``breakdown``: where the time
+    went, per stage and per episode component (:mod:`navbench.pipeline.breakdown`; stored in
+    the database's ``run_timings`` with the run).
     """
 
     run_id: int
@@ -177,6 +185,7 @@ class RunResult:
     report: "Ref | None" = None
     report_path: Path | None = None
     refs: list[tuple[str, str]] = field(default_factory=list)
+    breakdown: list[dict] = field(default_factory=list)
 
     @property
     def scores(self) -> "pandas.DataFrame":
@@ -207,6 +216,7 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     recorded as interrupted and the ``KeyboardInterrupt`` propagates.
     """
     from navbench.errors import ConfigError
+    from navbench.pipeline.breakdown import breakdown_rows
     from navbench.pipeline.profiles import Profile, load_profile, override
     from navbench.pipeline.publish import check_report_dir, protected_paths, publish
     from navbench.pipeline.stages import report_stage, score_stage
@@ -240,7 +250,10 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
             finally:
                 if ctx.used:
                     ctx.store.set_ref(ref, ctx.used)
+        # Where the time went, the report stage included: stored with the (finished) run.
+        breakdown = breakdown_rows(ctx.timings, summary, summary.seconds, summary.workers)
+        rdb.add_run_timings(run_id, breakdown)
     report_path = report.path if report is not None else None
     if report is not None and report_dir is not None:
         report_path = publish(report.path.parent, Path(report_dir), protected, "--report") / report.path.name
-    return RunResult(run_id, prof, inputs, summary, score, report, report_path, list(ctx.used))
+    return RunResult(run_id, prof, inputs, summary, score, report, report_path, list(ctx.used), breakdown)

@@ -140,6 +140,9 @@ class Reference(NamedTuple):
     valid: np.ndarray  # (H, W) bool
     T_wc: np.ndarray  # (4, 4) camera pose the reference was seen from
     intr: Intrinsics
+    # a lazy reference (navbench.worldmodel.fastrender.LazyFrame) whose fill(points, ok, Trels)
+    # renders the pixels the kernel will read before it reads them; None: rgb/depth/valid are full
+    lazy: Any = None
 
 
 def prepare_reference(frame: Frame, intr: Intrinsics, T_wc: np.ndarray) -> Reference:
@@ -217,8 +220,8 @@ def _camera_rotation_dtheta(theta: float) -> np.ndarray:
 _HATS = np.stack([hat(e) for e in np.eye(3)])
 
 
-def linearization(param: str, state, T_ref: np.ndarray,
-                  camera_height: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def linearization(param: str, state, T_ref: np.ndarray, camera_height: float,
+                  T_ref_inv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``T_rel = T_ref^-1 T_wc(state)`` and the affine point Jacobian ``dq/dparam_c = B[c] p + b[c]``.
 
     ``q = T_rel p`` maps current-camera points ``p`` into the reference camera.
@@ -226,9 +229,10 @@ def linearization(param: str, state, T_ref: np.ndarray,
     ``param="se3"``: ``state`` is ``T_wc`` (4x4); 6 parameters, a right perturbation
     ``T_wc exp(delta)`` with ``delta = (rho, phi)`` in the current camera frame, so
     ``dq/drho_j = R_rel e_j`` and ``dq/dphi_j = R_rel (e_j x p)``.
-    Returns ``T_rel (4, 4)``, ``B (P, 3, 3)``, ``b (P, 3)``.
+    Returns ``T_rel (4, 4)``, ``B (P, 3, 3)``, ``b (P, 3)``. ``T_ref_inv``: ``se3_inverse(T_ref)``
+    when the caller has it (an optimiser linearises many times against one reference).
     """
-    Ti = se3_inverse(T_ref)
+    Ti = se3_inverse(T_ref) if T_ref_inv is None else T_ref_inv
     if param == "planar":
         Trel = Ti @ camera_pose(state, camera_height)
         Rp = Ti[:3, :3]
@@ -510,6 +514,40 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
     return val, gsub, Hm, girls, counts
 
 
+@numba.njit(cache=True, nogil=True)
+def _accumulate_many(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trels, Bs, bs,
+                     photo_thr, geo_thr, max_curv, eps_p, eps_g, w_photo, w_geo):
+    """:func:`_accumulate_kernel` for each of ``N`` linearisations ``Trels (N, 4, 4)``, ``Bs
+    (N, P, 3, 3)``, ``bs (N, P, 3)``: the values ``(N,)`` and counts ``(N, 2)`` (one call instead
+    of ``N``: the heading search scores its candidates with it)."""
+    n = Trels.shape[0]
+    vals = np.empty(n)
+    counts = np.empty((n, 2), np.int64)
+    for c in range(n):
+        out = _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trels[c], Bs[c], bs[c],
+                                 photo_thr, geo_thr, max_curv, eps_p, eps_g, w_photo, w_geo)
+        vals[c] = out[0]
+        counts[c, 0] = out[4][0]
+        counts[c, 1] = out[4][1]
+    return vals, counts
+
+
+def accumulate_values(ref: Reference, obs: Observation, lins: list, cfg: TrackerConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The ``value`` and ``counts`` of :func:`accumulate` (photometric term on) for every
+    ``(Trel, B, b)`` of ``lins`` in one compiled call: ``(N,)`` values, ``(N, 2)`` counts."""
+    i = ref.intr
+    Trels = np.ascontiguousarray(np.stack([t for t, _, _ in lins]))
+    if ref.lazy is not None:
+        ref.lazy.fill(obs.points, obs.ok, Trels)
+    return _accumulate_many(ref.rgb, ref.depth, ref.valid, float(i.fx), float(i.fy),
+                            float(i.cx), float(i.cy), obs.points, obs.rgb, obs.ok, Trels,
+                            np.ascontiguousarray(np.stack([B for _, B, _ in lins])),
+                            np.ascontiguousarray(np.stack([b for _, _, b in lins])),
+                            float(cfg.photo_threshold), float(cfg.geo_threshold),
+                            float(cfg.normal_max_curvature), float(cfg.irls_eps[0]),
+                            float(cfg.irls_eps[1]), float(cfg.photo_weight), float(cfg.geo_weight))
+
+
 class Accumulated(NamedTuple):
     """Sums over the sampled pixels of the data terms of eq. 7 (unscaled)."""
 
@@ -528,6 +566,8 @@ def accumulate(ref: Reference, obs: Observation, Trel: np.ndarray, B: np.ndarray
     ``photometric=False`` drops the photometric term (point-to-plane only).
     """
     i = ref.intr
+    if ref.lazy is not None:
+        ref.lazy.fill(obs.points, obs.ok, np.ascontiguousarray(Trel)[None])
     out = _accumulate_kernel(ref.rgb, ref.depth, ref.valid, float(i.fx), float(i.fy),
                              float(i.cx), float(i.cy), obs.points, obs.rgb, obs.ok,
                              np.ascontiguousarray(Trel), np.ascontiguousarray(B),

@@ -29,6 +29,7 @@ delegates its ``renderer`` method here.
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numba as nb
@@ -159,6 +160,76 @@ def _f(occ, ux, uy, uz, nx, ny, nz):
     return _tri(occ, i, j, k, tx, ty, tz)
 
 
+@nb.njit(cache=True, inline="always")
+def _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
+                  nx, ny, nz, depth, rgb, valid):
+    """Render pixel ``(r, c)`` into ``depth``, ``rgb``, ``valid`` (one ray of :func:`_render_kernel`;
+    :func:`fill_projected` renders single pixels with it)."""
+    a0, a1, a2 = rays[r, c, 0], rays[r, c, 1], rays[r, c, 2]
+    # world direction times step, in cell units
+    dx = (R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2) * inv_size[0] * step
+    dy = (R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2) * inv_size[1] * step
+    dz = (R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2) * inv_size[2] * step
+    hit = 0
+    fp = 0.0
+    # reciprocal per-sample displacement (cells): all axes, xy only, z only
+    # (capped at n samples so the int conversions below never overflow)
+    amax = max(abs(dx), max(abs(dy), abs(dz)))
+    inv_amax = min(1.0 / amax, float(n)) if amax > 0 else float(n)
+    axy = max(abs(dx), abs(dy))
+    inv_axy = min(1.0 / axy, float(n)) if axy > 0 else float(n)
+    zlim = min(SLAB / abs(dz), float(n)) if dz != 0 else float(n)
+    m = 1
+    while m <= n:
+        ux = u_c[0] + m * dx
+        uy = u_c[1] + m * dy
+        uz = u_c[2] + m * dz
+        i, tx = _cell(ux, nx)
+        j, ty = _cell(uy, ny)
+        k, tz = _cell(uz, nz)
+        D = dist[i, j, k]
+        if D > 0:
+            # every interpolation cell within Chebyshev distance D - 1 has max <= tau:
+            # the next floor((D - 1) / amax) samples stay inside them (clamping is
+            # 1-Lipschitz), so none of them can cross. The slab table does the same
+            # for the box of xy half-width D2 - 1 and z half-width SLAB.
+            skip = int((D - 1) * inv_amax)
+            s2 = min(int((dist2[i, j, k] - 1) * inv_axy), int(zlim))
+            if s2 > skip:
+                skip = s2
+            m += 1 + skip
+            continue
+        fp = _tri(occ, i, j, k, tx, ty, tz)
+        if fp > tau:
+            hit = m
+            break
+        m += 1
+    if hit == 0:
+        depth[r, c] = np.inf
+        valid[r, c] = False
+        rgb[r, c, 0] = 0.0
+        rgb[r, c, 1] = 0.0
+        rgb[r, c, 2] = 0.0
+        return
+    mm = hit - 1
+    fm = _f(occ, u_c[0] + mm * dx, u_c[1] + mm * dy, u_c[2] + mm * dz, nx, ny, nz)
+    if fm > tau:  # only possible for mm == 0: the camera is inside occupied space
+        depth[r, c] = np.inf
+        valid[r, c] = False
+        rgb[r, c, 0] = 0.0
+        rgb[r, c, 1] = 0.0
+        rgb[r, c, 2] = 0.0
+        return
+    alpha = (tau - fm) / (fp - fm)
+    ms = mm + alpha  # k* / step
+    depth[r, c] = ms * step
+    valid[r, c] = True
+    i, tx = _cell(u_c[0] + ms * dx, nx)
+    j, ty = _cell(u_c[1] + ms * dy, ny)
+    k, tz = _cell(u_c[2] + ms * dz, nz)
+    _tri3(col, i, j, k, tx, ty, tz, rgb[r, c])
+
+
 def _render_kernel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, depth, rgb, valid):
     """Fill ``depth (H, W)``, ``rgb (H, W, 3)``, ``valid (H, W)`` in place.
 
@@ -175,69 +246,111 @@ def _render_kernel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, 
         # march to far walls, lower rows stop at the floor), so contiguous halves are unbalanced
         r = 2 * rr if rr < half else 2 * (rr - half) + 1
         for c in range(W):
-            a0, a1, a2 = rays[r, c, 0], rays[r, c, 1], rays[r, c, 2]
-            # world direction times step, in cell units
-            dx = (R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2) * inv_size[0] * step
-            dy = (R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2) * inv_size[1] * step
-            dz = (R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2) * inv_size[2] * step
-            hit = 0
-            fp = 0.0
-            # reciprocal per-sample displacement (cells): all axes, xy only, z only
-            # (capped at n samples so the int conversions below never overflow)
-            amax = max(abs(dx), max(abs(dy), abs(dz)))
-            inv_amax = min(1.0 / amax, float(n)) if amax > 0 else float(n)
-            axy = max(abs(dx), abs(dy))
-            inv_axy = min(1.0 / axy, float(n)) if axy > 0 else float(n)
-            zlim = min(SLAB / abs(dz), float(n)) if dz != 0 else float(n)
-            m = 1
-            while m <= n:
-                ux = u_c[0] + m * dx
-                uy = u_c[1] + m * dy
-                uz = u_c[2] + m * dz
-                i, tx = _cell(ux, nx)
-                j, ty = _cell(uy, ny)
-                k, tz = _cell(uz, nz)
-                D = dist[i, j, k]
-                if D > 0:
-                    # every interpolation cell within Chebyshev distance D - 1 has max <= tau:
-                    # the next floor((D - 1) / amax) samples stay inside them (clamping is
-                    # 1-Lipschitz), so none of them can cross. The slab table does the same
-                    # for the box of xy half-width D2 - 1 and z half-width SLAB.
-                    skip = int((D - 1) * inv_amax)
-                    s2 = min(int((dist2[i, j, k] - 1) * inv_axy), int(zlim))
-                    if s2 > skip:
-                        skip = s2
-                    m += 1 + skip
-                    continue
-                fp = _tri(occ, i, j, k, tx, ty, tz)
-                if fp > tau:
-                    hit = m
+            _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
+                          nx, ny, nz, depth, rgb, valid)
+
+
+@nb.njit(cache=True, nogil=True)
+def fill_projected(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau,
+                   depth32, rgb32, valid8, done, depth, rgb, valid,
+                   fx, fy, cx, cy, pts, ook, Trels):
+    """Render, on demand, the reference pixels the eq. 7 kernel will read (a lazy reference).
+
+    For every linearisation ``Trels[t] (4, 4)`` and every valid point ``pts[k]`` it projects
+    ``q = Trel p`` exactly as :func:`navbench.track.eq7._accumulate_kernel` does (the same
+    expressions, so the same floats) and renders (with :func:`_render_pixel`, the full
+    renderer's ray) the pixels the kernel reads there that are not yet ``done``: the 4 bilinear
+    corners and, when inside the border, the nearest pixel and its 4 neighbours (the normal and
+    curvature). Rendered pixels are written to the
+    float32 frame (``depth32``, ``rgb32``, ``valid8``) and converted as
+    :func:`navbench.track.eq7.prepare_reference` converts a frame (float64, invalid depth 0).
+    Returns the number of pixels rendered.
+    """
+    nx, ny, nz = occ.shape
+    H, W = done.shape
+    count = 0
+    for t in range(Trels.shape[0]):
+        Trel = Trels[t]
+        for k in range(pts.shape[0]):
+            if not ook[k]:
+                continue
+            p0, p1, p2 = pts[k, 0], pts[k, 1], pts[k, 2]
+            q0 = Trel[0, 0] * p0 + Trel[0, 1] * p1 + Trel[0, 2] * p2 + Trel[0, 3]
+            q1 = Trel[1, 0] * p0 + Trel[1, 1] * p1 + Trel[1, 2] * p2 + Trel[1, 3]
+            q2 = Trel[2, 0] * p0 + Trel[2, 1] * p1 + Trel[2, 2] * p2 + Trel[2, 3]
+            if q2 <= 1e-6:
+                continue
+            iz = 1.0 / q2
+            u = fx * q0 * iz + cx
+            v = fy * q1 * iz + cy
+            if not (u >= 0.0 and u <= W - 1 and v >= 0.0 and v <= H - 1):
+                continue
+            u0 = min(int(math.floor(u)), W - 2)
+            v0 = min(int(math.floor(v)), H - 2)
+            ui = int(math.floor(u + 0.5))
+            vi = int(math.floor(v + 0.5))
+            cross = ui >= 1 and ui <= W - 2 and vi >= 1 and vi <= H - 2
+            # the bilinear corners, then the nearest pixel's cross (5 pixels)
+            for e in range(9):
+                if e < 4:
+                    r, c = v0 + e // 2, u0 + e % 2
+                elif cross:
+                    r = vi + (1 if e == 5 else -1 if e == 6 else 0)
+                    c = ui + (1 if e == 7 else -1 if e == 8 else 0)
+                else:
                     break
-                m += 1
-            if hit == 0:
-                depth[r, c] = np.inf
-                valid[r, c] = False
-                rgb[r, c, 0] = 0.0
-                rgb[r, c, 1] = 0.0
-                rgb[r, c, 2] = 0.0
-                continue
-            mm = hit - 1
-            fm = _f(occ, u_c[0] + mm * dx, u_c[1] + mm * dy, u_c[2] + mm * dz, nx, ny, nz)
-            if fm > tau:  # only possible for mm == 0: the camera is inside occupied space
-                depth[r, c] = np.inf
-                valid[r, c] = False
-                rgb[r, c, 0] = 0.0
-                rgb[r, c, 1] = 0.0
-                rgb[r, c, 2] = 0.0
-                continue
-            alpha = (tau - fm) / (fp - fm)
-            ms = mm + alpha  # k* / step
-            depth[r, c] = ms * step
-            valid[r, c] = True
-            i, tx = _cell(u_c[0] + ms * dx, nx)
-            j, ty = _cell(u_c[1] + ms * dy, ny)
-            k, tz = _cell(u_c[2] + ms * dz, nz)
-            _tri3(col, i, j, k, tx, ty, tz, rgb[r, c])
+                if done[r, c]:
+                    continue
+                _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
+                              nx, ny, nz, depth32, rgb32, valid8)
+                d = np.float64(depth32[r, c])
+                ok = valid8[r, c] and math.isfinite(d) and d > 0
+                valid[r, c] = ok
+                depth[r, c] = d if ok else 0.0
+                for ch in range(3):
+                    rgb[r, c, ch] = np.float64(rgb32[r, c, ch])
+                done[r, c] = True
+                count += 1
+    return count
+
+
+class LazyFrame:
+    """A reference image of one camera pose whose pixels are rendered when first needed.
+
+    ``rgb (H, W, 3)``, ``depth (H, W)`` float64 and ``valid (H, W)`` hold what
+    :func:`navbench.track.eq7.prepare_reference` makes of the full rendered frame, at every pixel
+    :meth:`fill` has rendered (zeros elsewhere); ``seconds`` sums the time spent rendering.
+    """
+
+    def __init__(self, renderer: "FastRenderer", T_wc: np.ndarray):
+        H, W = renderer.intrinsics.shape
+        T_wc = np.asarray(T_wc, np.float64)
+        self.renderer = renderer
+        self.T_wc = T_wc
+        self._u_c = (T_wc[:3, 3] - renderer._lo) * renderer._inv - 0.5
+        self._R = np.ascontiguousarray(T_wc[:3, :3])
+        self._depth32 = np.zeros((H, W), np.float32)
+        self._rgb32 = np.zeros((H, W, 3), np.float32)
+        self._valid8 = np.zeros((H, W), np.bool_)
+        self.done = np.zeros((H, W), np.bool_)
+        self.rgb = np.zeros((H, W, 3))
+        self.depth = np.zeros((H, W))
+        self.valid = np.zeros((H, W), np.bool_)
+        self.seconds = 0.0
+        self.rendered = 0
+
+    def fill(self, points: np.ndarray, ok: np.ndarray, Trels: np.ndarray) -> None:
+        """Render the pixels that the eq. 7 kernel reads for ``points (K, 3)`` (where ``ok``)
+        under each of ``Trels (N, 4, 4)``."""
+        import time
+
+        t0 = time.perf_counter()
+        fr, i = self.renderer, self.renderer.intrinsics
+        self.rendered += fill_projected(
+            fr.vmap.occ, fr._col, fr.dist, fr.dist2, self._u_c, fr._inv, self._R, fr.rays, fr.step, fr.n,
+            fr.vmap.tau, self._depth32, self._rgb32, self._valid8, self.done, self.depth, self.rgb,
+            self.valid, float(i.fx), float(i.fy), float(i.cx), float(i.cy), points, ok, Trels)
+        self.seconds += time.perf_counter() - t0
 
 
 def _named_copy(fn, name: str):
@@ -266,14 +379,16 @@ class FastRenderer:
     ``step``: ray sample spacing Delta (m), default ``vmap.meta['step']`` or 0.1 m;
     ``max_range`` (m): the last sample is at ``round(max_range / step) * step``.
     ``parallel``: rows on numba's threads; ``None`` = only for images of at least
-    :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster).
+    :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster), and only
+    when numba may use more than one thread (pool workers use one).
     """
 
     def __init__(self, vmap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                  max_range: float = MAX_RANGE, step: float | None = None,
                  parallel: bool | None = None):
-        if parallel is None:
-            parallel = intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+        if parallel is None:  # one numba thread (a pool worker): the serial kernel, same pixels
+            parallel = (intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
+                        and nb.get_num_threads() > 1)
         self._kernel = render_kernel if parallel else render_kernel_serial
         self.vmap = vmap
         self.intrinsics = intrinsics

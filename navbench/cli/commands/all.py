@@ -67,6 +67,11 @@ def register(app: typer.Typer) -> None:
                                                     address=address, progress=ui, report_dir=report_dir,
                                                     command=command_line(), ref_name="all"))
         _print_scores(result.score.path)
+        from navbench.pipeline.breakdown import format_breakdown
+
+        console.print(f"where the time went (run {result.run_id}; stored in the database's run_timings):",
+                      highlight=False)
+        console.print(escape(format_breakdown(result.breakdown)), highlight=False)
         nav = result.navigation
         console.print(f"profile [bold]{escape(result.profile.name)}[/bold]: {nav.stored} new episodes, "
                       f"{nav.already_done + nav.stored}/{nav.total} stored; "

@@ -26,6 +26,8 @@ Tables (SQLAlchemy 2 declarative models in :mod:`navbench.pipeline.db.schema`):
 * ``sequence_tracking`` -- one RGB-D sequence tracked by ``track-sequence`` (ATE, RPE, ms per
   frame), unique on its sequence key (sequence, map, odometry, estimator, options, seed).
 * ``bench`` -- one measured benchmark metric, unique on (run_id, metric, device).
+* ``run_timings`` -- where a run's time went (:mod:`navbench.pipeline.breakdown`): per stage
+  and per episode timing component, unique on (run_id, kind, name).
 
 Duplicate rows are impossible: every ``add_*``/``record_*`` inserts with the dialect's
 ``ON CONFLICT DO NOTHING`` (SQLite, PostgreSQL; other dialects select the existing keys first,
@@ -57,6 +59,7 @@ from navbench.pipeline.db.schema import (
     MapRow,
     MetaRow,
     Run,
+    RunTimingRow,
     TaskRow,
     TaskSetRow,
     TrackingRow,
@@ -66,6 +69,6 @@ from navbench.pipeline.db.store import ResultsDB
 
 __all__ = [
     "DB_ENV", "DEFAULT_DB_URL", "RUN_STATUSES", "SCHEMA_VERSION", "Base", "BenchRow", "EpisodeRow",
-    "LevelRow", "MapRow", "MetaRow", "ResultsDB", "Run", "TaskRow", "TaskSetRow", "TrackingRow",
+    "LevelRow", "MapRow", "MetaRow", "ResultsDB", "Run", "RunTimingRow", "TaskRow", "TaskSetRow", "TrackingRow",
     "cpu_description", "episode_row_from_score", "git_commit", "resolve_db_url",
 ]

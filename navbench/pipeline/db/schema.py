@@ -293,3 +293,22 @@ _SEQUENCE_FIELDS = (
 )
 _SEQUENCE_REQUIRED = ("sequence_key", "sequence", "sequence_hash", "estimator", "odometry", "seed",
                       "frames")
+
+
+class RunTimingRow(Base):
+    """Where a run's time went (:mod:`navbench.pipeline.breakdown`): one row per stage (``kind``
+    ``stage``: wall-clock seconds, calls, cache hits) and per episode timing component (``kind``
+    ``component``: worker seconds summed over steps, ``count`` the steps or episodes)."""
+
+    __tablename__ = "run_timings"
+    __table_args__ = (UniqueConstraint("run_id", "kind", "name", name="uq_run_timings_run_kind_name"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    kind: Mapped[str] = mapped_column(String(16))   # "stage" | "component"
+    name: Mapped[str] = mapped_column(String(64))
+    seconds: Mapped[float] = mapped_column(Float)
+    count: Mapped[int] = mapped_column(Integer)
+    cached: Mapped[int] = mapped_column(Integer)
+
+
+_RUN_TIMING_FIELDS = ("kind", "name", "seconds", "count", "cached")

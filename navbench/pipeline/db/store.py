@@ -34,6 +34,7 @@ from navbench.pipeline.db.schema import (
     _EPISODE_REQUIRED,
     _MAP_METRICS,
     _PG_SCHEMA_LOCK,
+    _RUN_TIMING_FIELDS,
     _TRACKING_FIELDS,
     _TRACKING_REQUIRED,
     RUN_STATUSES,
@@ -45,6 +46,7 @@ from navbench.pipeline.db.schema import (
     MapRow,
     MetaRow,
     Run,
+    RunTimingRow,
     TaskRow,
     TaskSetRow,
     TrackingRow,
@@ -496,6 +498,25 @@ class ResultsDB:
     def bench_frame(self) -> "pandas.DataFrame":
         """All benchmark rows, oldest first."""
         return self._frame(select(BenchRow.__table__).order_by(BenchRow.id))
+
+    # -- run timings (the breakdown, navbench.pipeline.breakdown) ---------------------------
+
+    def add_run_timings(self, run_id: int, rows: list[dict]) -> int:
+        """Store a run's breakdown rows (kind, name, seconds, count, cached), ignoring duplicates
+        of (run_id, kind, name); returns how many were new."""
+        clean = self._normalise(rows, _RUN_TIMING_FIELDS, _RUN_TIMING_FIELDS, "run timing")
+        for r in clean:
+            r.update(run_id=int(run_id), seconds=float(r["seconds"]), count=int(r["count"]),
+                     cached=int(r["cached"]))
+        with self._begin() as conn:
+            return self._insert_ignore(conn, RunTimingRow, clean, ("run_id", "kind", "name"))
+
+    def run_timings_frame(self, run_id: int | None = None) -> "pandas.DataFrame":
+        """The breakdown rows of run ``run_id`` (all runs: None), in the order they were stored."""
+        stmt = select(RunTimingRow.__table__).order_by(RunTimingRow.id)
+        if run_id is not None:
+            stmt = stmt.where(RunTimingRow.run_id == int(run_id))
+        return self._frame(stmt)
 
     # -- frames ---------------------------------------------------------------------------------
 

@@ -4,6 +4,7 @@ check that lets a stage verify an input once per content (:func:`verified`)."""
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -35,14 +36,18 @@ class StageContext:
     levels_dir: Path = Path("levels")
     tasks_dir: Path = Path("tasks")
     used: list = field(default_factory=list)   # (stage, key) pairs touched: gc roots
+    # (stage, seconds, cached) of every run() call: the per-stage breakdown (pipeline.breakdown)
+    timings: list = field(default_factory=list)
 
     def forced(self, stage: str) -> bool:
         return "*" in self.force or stage in self.force
 
     def run(self, stage: str, config: Any, inputs: dict[str, str],
             compute: Callable[[Path], None]) -> tuple[Path, str, bool]:
+        t0 = time.perf_counter()
         path, key, cached = run_stage(self.store, stage, config, inputs, FORMAT[stage], compute,
                                       force=self.forced(stage), log=self.log)
+        self.timings.append((stage, time.perf_counter() - t0, bool(cached)))
         self.used.append((stage, key))
         return path, key, cached
 

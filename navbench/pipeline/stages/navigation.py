@@ -4,7 +4,8 @@ stored by this (parent) process chunk by chunk."""
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from navbench.pipeline.artifacts import FORMAT, TRAJ_FILE, load_record, save_record
@@ -30,6 +31,14 @@ class NavigationSummary:
     stored: int = 0           # new database rows written by this run
     stored_elsewhere: int = 0  # of already_done: stored by another run while this one ran
     restored: int = 0         # stored episodes whose missing or corrupt trajectory was rewritten
+    # the breakdown of the simulated episodes (pipeline.breakdown): seconds per timing
+    # component summed over their steps, the steps, and the parent's storing time
+    component_s: dict = field(default_factory=dict)
+    estimator_s: dict = field(default_factory=dict)  # estimator -> [seconds of its steps, steps]
+    steps: int = 0
+    store_s: float = 0.0
+    seconds: float | None = None  # the stage's wall-clock time and the executor's workers
+    workers: int = 1              # (set by pipeline.run.navigate)
 
 
 def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str) -> dict:
@@ -157,8 +166,15 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
         else map(run_episode_chunk, specs)
     simulated_twice = 0
     for triples in results:
+        t_store = time.perf_counter()
         batch = []
         for job, record, score in triples:
+            per = summary.estimator_s.setdefault(job.cell.estimator, [0.0, 0])
+            for k, v in (record.timings_ms or {}).items():
+                summary.component_s[k] = summary.component_s.get(k, 0.0) + float(sum(v)) / 1e3
+                per[0] += float(sum(v)) / 1e3
+            summary.steps += int(record.steps)
+            per[1] += int(record.steps)
             key = _store_trajectory(ctx, job, record)
             ctx.used.append(("episode", key))
             if _triple(job) in restoring:
@@ -177,6 +193,7 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
         summary.stored_elsewhere += len(batch) - new
         simulated_twice += len(batch) - new
         summary.ran += len(triples)
+        summary.store_s += time.perf_counter() - t_store
         if on_progress:
             on_progress(len(triples))
     if summary.stored_elsewhere:
