@@ -25,13 +25,17 @@ Hypotheses come back best first by ``score``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
 from navbench.errors import NavbenchError
-from navbench.geometry import Frame, Intrinsics
+from navbench.geometry import Frame, Intrinsics, camera_pose, wrap_angle
+from navbench.localize import signature as sig
+from navbench.track.eq7 import TrackerConfig, pixel_table, prepare_reference
+from navbench.track.ours import align_gauss_newton
 
 
 class LocalizationError(NavbenchError):
@@ -44,18 +48,23 @@ class LocalizerConfig:
 
     lattice_step: float = 0.25     # m between lattice points
     clearance: float = 0.1         # m from any occupied cell (the agent radius)
-    bins: int = 720                # heading bins of a panorama (0.5 deg)
+    bins: int = 360                # heading bins of a panorama (1 deg)
     rows: int = 4                  # signature elevations y_c = row_top + j * row_step
     row_top: float = -0.3
     row_step: float = 0.15
-    grey_weight: float = 0.5       # weight of the grey channel against inverse range (1/m)
-    refine_k: int = 3              # candidates refined by eq. 7
+    depth_feature: str = "range"   # signature depth channel: "range" (clipped) or "inverse"
+    feature_range: float = 8.0     # m: ranges are clipped here ("range")
+    grey_weight: float = 0.5       # weight of the grey channel against the depth channel
+    k: int = 1                     # hypotheses returned by default
+    max_candidates: int = 8        # at most this many candidates are refined by eq. 7 ...
+    accept: float = 0.8            # ... stopping once k of them reach this confidence
     nms_radius: float = 0.5        # m: candidates closer than this (and nms_deg) are one
     nms_deg: float = 30.0
     refine_rounds: int = 2         # render + Gauss-Newton rounds per candidate
     gn_pixels: int = 1500
     inlier_abs: float = 0.05       # m: depth agreement tolerance abs + rel * depth
     inlier_rel: float = 0.03
+    inlier_grey: float = 0.12      # |grey difference| tolerance of an inlier (colour units)
 
 
 @dataclass(frozen=True)
@@ -77,16 +86,31 @@ class Bank(NamedTuple):
 
 
 class Localizer:
-    """See the module docstring. ``last_timing``: the last query's component times (ms)."""
+    """See the module docstring. ``last_timing``: the last query's component times (ms):
+    ``signature``, ``correlate``, ``refine``, ``total``."""
 
     def __init__(self, world_model, intrinsics: Intrinsics, camera_height: float,
                  config: LocalizerConfig, bank: Bank):
+        if len(bank.points) == 0:
+            raise LocalizationError("localizer: the map has no free lattice point (an empty or "
+                                    "fully occupied map?)")
+        if np.ptp(bank.pano[:, : config.rows]) == 0:
+            raise LocalizationError("localizer: the map renders nothing from its free space (an "
+                                    "empty map?)")
         self.world_model = world_model
         self.intrinsics = intrinsics
-        self.camera_height = camera_height
+        self.camera_height = float(camera_height)
         self.config = config
         self.bank = bank
         self.last_timing: dict[str, float] = {}
+        self._ycs = sig.elevations(config.rows, config.row_top, config.row_step)
+        self._R = sig.half_window(intrinsics, config.bins)
+        self._corr = sig.Correlator(bank.pano, self._R)
+        self._renderer = world_model.renderer(intrinsics, camera_height)
+        H, W = intrinsics.shape
+        self._idx = pixel_table(H, W, rows=1, cols=min(config.gn_pixels, H * W), seed=0)[0]
+        self._gn = replace(TrackerConfig(), prior_sigma=(10.0, 10.0), yaw_search_deg=0.0,
+                          gn_pixels=len(self._idx))
 
     @classmethod
     def build(cls, world_model, intrinsics: Intrinsics, camera_height: float,
@@ -94,9 +118,121 @@ class Localizer:
         """Render the signature bank of ``world_model`` (any :class:`~navbench.worldmodel.base.WorldModel`)
         for a camera ``intrinsics`` at ``camera_height``; :class:`LocalizationError` for a map
         with no free lattice point."""
-        raise NotImplementedError
+        return cls(world_model, intrinsics, camera_height, config,
+                   build_bank(world_model, camera_height, config))
 
     def localize(self, frame: Frame, k: int | None = None) -> list[Hypothesis]:
-        """The ``k`` (default ``config.refine_k``) best poses for ``frame`` (an RGB-D
+        """The ``k`` (default ``config.k``) best poses for ``frame`` (an RGB-D
         :class:`~navbench.geometry.Frame` of this localiser's intrinsics), best first."""
-        raise NotImplementedError
+        cfg = self.config
+        k = cfg.k if k is None else int(k)
+        if k < 1:
+            raise LocalizationError(f"localize: k must be >= 1, got {k}")
+        shape = tuple(np.shape(frame.depth))
+        if shape != self.intrinsics.shape or np.shape(frame.rgb)[:2] != shape \
+                or np.shape(frame.valid) != shape:
+            raise LocalizationError(f"localize: frame is {shape}, the localiser's intrinsics say "
+                                    f"{self.intrinsics.shape}")
+        t0 = time.perf_counter()
+        Q = sig.query_signature(frame, self.intrinsics, self._ycs, cfg.grey_weight, cfg.bins,
+                                cfg.depth_feature, cfg.feature_range)
+        t1 = time.perf_counter()
+        D = self._corr.costs(Q)
+        cands = candidates(D, self.bank.points, max(k, cfg.max_candidates), cfg)
+        t2 = time.perf_counter()
+        hyps: list[Hypothesis] = []
+        for pose in cands:  # coarse order; stop once k are verified
+            hyps.append(self._refine(frame, pose))
+            if len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
+                break
+        hyps = _dedupe(sorted(hyps, key=lambda h: -h.score))
+        t3 = time.perf_counter()
+        self.last_timing = {"signature": 1e3 * (t1 - t0), "correlate": 1e3 * (t2 - t1),
+                            "refine": 1e3 * (t3 - t2), "total": 1e3 * (t3 - t0)}
+        return hyps[:k]
+
+    def _refine(self, frame: Frame, pose: np.ndarray) -> Hypothesis:
+        """Eq. 7 alignment of ``frame`` against the map's renders from ``pose`` on, verified."""
+        cfg = self.config
+        pose = np.asarray(pose, np.float64)
+        pred = None
+        for _ in range(max(cfg.refine_rounds, 1)):
+            pred = self._renderer.render(pose)
+            ref = prepare_reference(pred, self.intrinsics, camera_pose(pose, self.camera_height))
+            new = align_gauss_newton(ref, frame, pose, self._gn, self._idx, self.camera_height)
+            if not np.all(np.isfinite(new)):
+                break
+            pose = new
+        pose[2] = float(wrap_angle(pose[2]))
+        # verified against the last render (from the previous round's pose, within ~1 cm)
+        conf = self._confidence(frame, pred)
+        return Hypothesis(pose, conf, conf)
+
+    def _confidence(self, frame: Frame, pred: Frame) -> float:
+        """Fraction of the sampled valid query pixels whose depth ``pred`` matches within
+        ``inlier_abs + inlier_rel * depth`` and whose grey level within ``inlier_grey``."""
+        cfg = self.config
+        dq = np.asarray(frame.depth).reshape(-1)[self._idx]
+        vq = np.asarray(frame.valid).reshape(-1)[self._idx] & np.isfinite(dq)
+        dp = np.asarray(pred.depth).reshape(-1)[self._idx]
+        vp = np.asarray(pred.valid).reshape(-1)[self._idx] & np.isfinite(dp)
+        n = int(vq.sum())
+        if n == 0:
+            return 0.0
+        both = vq & vp
+        gq = np.asarray(frame.rgb).reshape(-1, 3)[self._idx].mean(axis=1)
+        gp = np.asarray(pred.rgb).reshape(-1, 3)[self._idx].mean(axis=1)
+        ok = (both & (np.abs(np.where(both, dq - dp, np.inf)) <= cfg.inlier_abs + cfg.inlier_rel * np.where(vq, dq, 0))
+              & (np.abs(gq - gp) <= cfg.inlier_grey))
+        return float(ok.sum()) / n
+
+
+def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Bank:
+    """The lattice and its panoramas (:mod:`navbench.localize.signature`) for ``world_model``."""
+    cfg = config
+    if cfg.bins % 8 or cfg.bins < 8:
+        raise LocalizationError(f"localizer: bins must be a positive multiple of 8, got {cfg.bins}")
+    occ, xs, ys = world_model.occupancy_slice("band")
+    points = sig.lattice_points(occ, xs, ys, cfg.lattice_step, cfg.clearance)
+    ycs = sig.elevations(cfg.rows, cfg.row_top, cfg.row_step)
+    quad = sig.quadrant_intrinsics(cfg.bins, cfg.rows, cfg.row_top, cfg.row_step)
+    render = world_model.renderer(quad, camera_height).render
+    pano = np.empty((len(points), 2 * cfg.rows, cfg.bins), np.float32)
+    for i, xy in enumerate(points):
+        pano[i] = sig.panorama(render, xy, cfg.bins, ycs, cfg.grey_weight, quad,
+                               cfg.depth_feature, cfg.feature_range)
+    return Bank(points.astype(np.float64), pano)
+
+
+def candidates(D: np.ndarray, points: np.ndarray, k: int, cfg: LocalizerConfig) -> list[np.ndarray]:
+    """The ``k`` best (lattice point, heading) of the cost table ``D (N, bins)``, each a local
+    minimum over the others within ``nms_radius`` m and ``nms_deg`` degrees (non-maximum
+    suppression), best first, as poses ``(x, y, theta)``."""
+    bins = D.shape[1]
+    best_s = np.argmin(D, axis=1)
+    best = D[np.arange(len(D)), best_s]
+    order = np.argsort(best, kind="stable")
+    heads = best_s * (2 * math.pi / bins)
+    kept: list[int] = []
+    for i in order:
+        close = False
+        for j in kept:
+            if (np.hypot(*(points[i] - points[j])) < cfg.nms_radius
+                    and abs(float(wrap_angle(heads[i] - heads[j]))) < math.radians(cfg.nms_deg)):
+                close = True
+                break
+        if not close:
+            kept.append(int(i))
+            if len(kept) >= k:
+                break
+    return [np.array([points[i, 0], points[i, 1], float(wrap_angle(heads[i]))]) for i in kept]
+
+
+def _dedupe(hyps: list[Hypothesis]) -> list[Hypothesis]:
+    """Drop a hypothesis within 5 cm and 2 degrees of a better one (refined to the same pose)."""
+    out: list[Hypothesis] = []
+    for h in hyps:
+        if not any(np.hypot(*(h.pose[:2] - o.pose[:2])) < 0.05
+                   and abs(float(wrap_angle(h.pose[2] - o.pose[2]))) < math.radians(2) for o in out):
+            out.append(h)
+    return out
