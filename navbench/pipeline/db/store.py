@@ -36,6 +36,8 @@ from navbench.pipeline.db.schema import (
     _PG_SCHEMA_LOCK,
     _TRACKING_FIELDS,
     _TRACKING_REQUIRED,
+    _LOCALIZE_FIELDS,
+    _LOCALIZE_REQUIRED,
     RUN_STATUSES,
     SCHEMA_VERSION,
     Base,
@@ -48,6 +50,7 @@ from navbench.pipeline.db.schema import (
     TaskRow,
     TaskSetRow,
     TrackingRow,
+    LocalizeRow,
     _add_missing_columns,
     resolve_db_url,
 )
@@ -443,6 +446,25 @@ class ResultsDB:
         if run_ids is not None:
             stmt = stmt.where(TrackingRow.run_id.in_([int(r) for r in run_ids]))
         return self._frame(_apply_filters(stmt, TrackingRow, filters))
+
+    # -- localisation (issue 14) ----------------------------------------------------------------
+
+    def add_localize_rows(self, run_id: int, rows: list[dict]) -> int:
+        """Insert localize-eval rows (one per query, see :class:`LocalizeRow`), ignoring
+        duplicates of (study_key, query_id); returns how many were new."""
+        clean = self._normalise(rows, _LOCALIZE_FIELDS, _LOCALIZE_REQUIRED, "localize")
+        now = _utcnow()
+        for r in clean:
+            r["run_id"] = int(run_id)
+            r["recorded"] = now
+        with self._begin() as conn:
+            return self._insert_ignore(conn, LocalizeRow, clean, ("study_key", "query_id"))
+
+    def localize_frame(self, run_ids: list[int] | None = None, **filters) -> "pandas.DataFrame":
+        stmt = select(LocalizeRow.__table__).order_by(LocalizeRow.id)
+        if run_ids is not None:
+            stmt = stmt.where(LocalizeRow.run_id.in_([int(r) for r in run_ids]))
+        return self._frame(_apply_filters(stmt, LocalizeRow, filters))
 
     # -- bench ----------------------------------------------------------------------------------
 
