@@ -46,7 +46,7 @@ class LocalizationError(NavbenchError):
 class LocalizerConfig:
     """Every setting of the localiser; its hash (with the map's and the camera's) keys the bank."""
 
-    lattice_step: float = 0.25     # m between lattice points
+    lattice_step: float = 0.125    # m between lattice points
     clearance: float = 0.1         # m from any occupied cell (the agent radius)
     bins: int = 360                # heading bins of a panorama (1 deg)
     rows: int = 4                  # signature elevations y_c = row_top + j * row_step

@@ -50,9 +50,20 @@ def bank_config(cfg, camera_height: float) -> dict:
     return {**{f: getattr(cfg, f) for f in _BANK_FIELDS}, "camera_height": float(camera_height)}
 
 
-def localize_bank_stage(ctx: StageContext, vmap, camera_height: float, cfg) -> Ref:
-    """Build (or fetch) the signature bank of ``vmap`` (a :class:`StudyMap`); ``ref.meta`` holds
-    ``build_s`` (seconds the build took when it ran) and ``bytes`` (the panoramas' size)."""
+def map_inputs(vmap, level: Ref | None) -> dict[str, str]:
+    """The bank's input keys: the map's key, plus the level's for ``--map true`` (whose map key
+    names no level)."""
+    if vmap.key == "true":
+        if level is None:
+            raise ConfigError("the true map's bank needs its level")
+        return {"map": vmap.key, "level": level.key}
+    return {"map": vmap.key}
+
+
+def localize_bank_stage(ctx: StageContext, vmap, camera_height: float, cfg, level: Ref | None = None) -> Ref:
+    """Build (or fetch) the signature bank of ``vmap`` (a :class:`StudyMap` of ``level``);
+    ``ref.meta`` holds ``build_s`` (seconds the build took when it ran) and ``bytes`` (the
+    panoramas' size)."""
 
     def compute(d: Path) -> None:
         from navbench.localize.localizer import build_bank
@@ -64,18 +75,21 @@ def localize_bank_stage(ctx: StageContext, vmap, camera_height: float, cfg) -> R
         np.savez(d / BANK_FILE, points=bank.points, pano=bank.pano,
                  info=np.array(json.dumps({"build_s": build_s})))
 
-    path, key, cached = ctx.run("localize-bank", bank_config(cfg, camera_height), {"map": vmap.key}, compute)
+    path, key, cached = ctx.run("localize-bank", bank_config(cfg, camera_height), map_inputs(vmap, level),
+                                compute)
     with np.load(path / BANK_FILE) as z:
         info = json.loads(str(z["info"]))
         nbytes = int(z["pano"].nbytes + z["points"].nbytes)
     return Ref("localize-bank", key, path / BANK_FILE, cached, "", {**info, "bytes": nbytes})
 
 
-def load_localizer(ctx: StageContext, vmap, intrinsics, camera_height: float, cfg, model=None):
-    """``(Localizer, bank Ref)`` for ``vmap`` through the cached bank (built if missing)."""
+def load_localizer(ctx: StageContext, vmap, intrinsics, camera_height: float, cfg, model=None,
+                   level: Ref | None = None):
+    """``(Localizer, bank Ref)`` for ``vmap`` (of ``level``) through the cached bank (built if
+    missing): what a stage that localises calls."""
     from navbench.localize import Bank, Localizer
 
-    ref = localize_bank_stage(ctx, vmap, camera_height, cfg)
+    ref = localize_bank_stage(ctx, vmap, camera_height, cfg, level)
     with np.load(ref.path) as z:
         bank = Bank(z["points"], z["pano"])
     model = vmap.load() if model is None else model
@@ -154,7 +168,7 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
     cfg = cfg.resolved()
     intr = camera_by_name(cfg.camera)
     model = vmap.load()
-    loc, bank = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, model)
+    loc, bank = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, model, level)
 
     def compute(d: Path) -> None:
         from navbench.levelgen.changed import change_level
@@ -178,7 +192,7 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
                  diff=diff, info=np.array(json.dumps({"bank_build_s": bank.meta["build_s"],
                                                              "bank_bytes": bank.meta["bytes"]})))
 
-    inputs = {"level": level.key, "map": vmap.key, "bank": bank.key}
+    inputs = {**map_inputs(vmap, level), "level": level.key, "bank": bank.key}
     path, key, cached = ctx.run("localize-eval", {"study": cfg, "change_count": CHANGE_COUNT}, inputs, compute)
     return Ref("localize-eval", key, path / LOCALIZE_FILE, cached, level.name,
                {"map_key": vmap.key, "bank_key": bank.key, "bank_cached": bank.cached, **bank.meta})
