@@ -64,7 +64,7 @@ class LocalizerConfig:
     gn_pixels: int = 1500
     inlier_abs: float = 0.05       # m: depth agreement tolerance abs + rel * depth
     inlier_rel: float = 0.03
-    inlier_grey: float = 0.12      # |grey difference| tolerance of an inlier (colour units)
+    inlier_colour: float = 0.1     # mean |RGB difference| tolerance of an inlier (colour units)
 
 
 @dataclass(frozen=True)
@@ -170,7 +170,7 @@ class Localizer:
 
     def _confidence(self, frame: Frame, pred: Frame) -> float:
         """Fraction of the sampled valid query pixels whose depth ``pred`` matches within
-        ``inlier_abs + inlier_rel * depth`` and whose grey level within ``inlier_grey``."""
+        ``inlier_abs + inlier_rel * depth`` and whose colour within ``inlier_colour`` (mean over RGB)."""
         cfg = self.config
         dq = np.asarray(frame.depth).reshape(-1)[self._idx]
         vq = np.asarray(frame.valid).reshape(-1)[self._idx] & np.isfinite(dq)
@@ -180,10 +180,10 @@ class Localizer:
         if n == 0:
             return 0.0
         both = vq & vp
-        gq = np.asarray(frame.rgb).reshape(-1, 3)[self._idx].mean(axis=1)
-        gp = np.asarray(pred.rgb).reshape(-1, 3)[self._idx].mean(axis=1)
+        dc = np.abs(np.asarray(frame.rgb).reshape(-1, 3)[self._idx]
+                    - np.asarray(pred.rgb).reshape(-1, 3)[self._idx]).mean(axis=1)
         ok = (both & (np.abs(np.where(both, dq - dp, np.inf)) <= cfg.inlier_abs + cfg.inlier_rel * np.where(vq, dq, 0))
-              & (np.abs(gq - gp) <= cfg.inlier_grey))
+              & (dc <= cfg.inlier_colour))
         return float(ok.sum()) / n
 
 
