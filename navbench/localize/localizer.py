@@ -13,13 +13,22 @@ Query (:meth:`Localizer.localize`)
     1. the query frame's signature over its field of view (the same elevations and bins);
     2. the squared distance to every lattice point's panorama at every circular shift by FFT
        (:func:`navbench.localize.signature.circular_costs`): best shift = heading;
-    3. the ``refine_k`` best (position, heading) candidates after non-maximum suppression are
+    3. candidates, best first after non-maximum suppression (``nms_radius``, ``nms_deg``), are
        refined by the ``ours`` alignment (planar Gauss-Newton of eq. 7 against the map's render
-       at the candidate, ``refine_rounds`` re-renders) and verified by their depth residual
-       (``confidence`` = fraction of the query's valid pixels whose depth the map predicts
-       within tolerance at the refined pose).
+       at the candidate, ``refine_rounds`` render + align rounds, no prior to speak of) and
+       verified by their residual: ``confidence`` = fraction of the query's sampled valid pixels
+       whose depth (within ``inlier_abs + inlier_rel * depth``) and colour (mean RGB difference
+       within ``inlier_colour``) the map predicts at the refined pose. Refinement stops once
+       ``k`` distinct hypotheses reach ``accept``, or after ``max_candidates``.
 
-Hypotheses come back best first by ``score``.
+Hypotheses come back best first by ``score`` (= confidence); poses refined to the same place
+(5 cm, 2 degrees) are reported once. An ambiguous view (a symmetric room) gives several
+hypotheses with near-equal scores: ask for ``k >= 2`` to see them.
+
+Tuning (coarse-candidate recall, 150 queries on the true map of ``tune-house``, a house
+generated with seed 1234 and not among the reported levels): the clipped-range depth channel
+beats inverse range (top-8 recall 96.7 vs 80.0 %), a 0.125 m lattice beats 0.25 m (top-3
+99.3 vs 95.3 %); grey weight, elevations and clipping range mattered little.
 """
 
 from __future__ import annotations
