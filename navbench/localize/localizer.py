@@ -28,7 +28,8 @@ hypotheses with near-equal scores: ask for ``k >= 2`` to see them.
 Tuning (coarse-candidate recall, 150 queries on the true map of ``tune-house``, a house
 generated with seed 1234 and not among the reported levels): the clipped-range depth channel
 beats inverse range (top-8 recall 96.7 vs 80.0 %), a 0.125 m lattice beats 0.25 m (top-3
-99.3 vs 95.3 %); grey weight, elevations and clipping range mattered little.
+99.3 vs 95.3 %), 192 heading bins do as well as 360 (top-3 99.3 %) at half the cost; grey
+weight, elevations and clipping range mattered little.
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ class LocalizerConfig:
 
     lattice_step: float = 0.125    # m between lattice points
     clearance: float = 0.1         # m from any occupied cell (the agent radius)
-    bins: int = 360                # heading bins of a panorama (1 deg)
+    bins: int = 192                # heading bins of a panorama (1.875 deg)
     rows: int = 4                  # signature elevations y_c = row_top + j * row_step
     row_top: float = -0.3
     row_step: float = 0.15

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from scipy import ndimage
 
 from navbench.geometry import Frame, Intrinsics
@@ -129,6 +130,23 @@ def panorama(render, xy, bins: int, ycs: np.ndarray, grey_weight: float,
     return out
 
 
+@njit(cache=True, fastmath=True)
+def _channel_products(Fr, Fi, Qr, Qi, out_r, out_i):
+    """``out[n, k] = sum_c F[n, c, k] * FQ[c, k]`` in real arithmetic (float32, one thread: no
+    BLAS thread pool to oversubscribe a busy CPU)."""
+    N, C, K = Fr.shape
+    for n in range(N):
+        for k in range(K):
+            out_r[n, k] = 0.0
+            out_i[n, k] = 0.0
+        for c in range(C):
+            for k in range(K):
+                a = Fr[n, c, k]
+                b = Fi[n, c, k]
+                out_r[n, k] += a * Qr[c, k] - b * Qi[c, k]
+                out_i[n, k] += a * Qi[c, k] + b * Qr[c, k]
+
+
 class Correlator:
     """The FFT form of the panoramas ``pano (N, C, bins)`` for windows of ``-R .. R`` bins."""
 
@@ -136,8 +154,9 @@ class Correlator:
         self.bins = pano.shape[-1]
         self.R = R
         A = self.bins
-        # (k, N, C) so that the per-frequency sum over channels is one batched matmul
-        self.F = np.ascontiguousarray(np.fft.rfft(pano, axis=-1).astype(np.complex64).transpose(2, 0, 1))
+        F = np.fft.rfft(pano, axis=-1)  # (N, C, k)
+        self.Fr = np.ascontiguousarray(F.real, dtype=np.float32)
+        self.Fi = np.ascontiguousarray(F.imag, dtype=np.float32)
         box = np.zeros(A)
         box[np.arange(-R, R + 1) % A] = 1.0
         e = np.fft.irfft(np.conj(np.fft.rfft(box)) * np.fft.rfft((pano.astype(np.float64) ** 2).sum(1), axis=-1),
@@ -149,9 +168,13 @@ class Correlator:
         A = self.bins
         qpad = np.zeros((Q.shape[0], A))
         qpad[:, np.arange(-self.R, self.R + 1) % A] = Q
-        FQ = np.conj(np.fft.rfft(qpad, axis=-1)).astype(np.complex64).T[:, :, None]  # (k, C, 1)
-        prod = np.matmul(self.F, FQ)[:, :, 0]  # (k, N)
-        corr = np.fft.irfft(prod.T, n=A, axis=-1)
+        FQ = np.conj(np.fft.rfft(qpad, axis=-1))  # (C, k)
+        Qr = np.ascontiguousarray(FQ.real, dtype=np.float32)
+        Qi = np.ascontiguousarray(FQ.imag, dtype=np.float32)
+        N, _, K = self.Fr.shape
+        pr, pi = np.empty((N, K), np.float32), np.empty((N, K), np.float32)
+        _channel_products(self.Fr, self.Fi, Qr, Qi, pr, pi)
+        corr = np.fft.irfft(pr + 1j * pi, n=A, axis=-1)
         return float((Q ** 2).sum()) + self.energy - 2.0 * corr
 
 
