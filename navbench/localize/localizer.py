@@ -19,9 +19,11 @@ Query (:meth:`Localizer.localize`)
        verified by their residual: ``confidence`` = fraction of the query's sampled valid pixels
        whose depth (within ``inlier_abs + inlier_rel * depth``) and colour (mean RGB difference
        within ``inlier_colour``) the map predicts at the refined pose. Refinement stops once
-       ``k`` distinct hypotheses reach ``accept``, or after ``max_candidates``.
+       ``min_candidates`` were refined and ``k`` distinct hypotheses reach ``accept``, or after
+       ``max_candidates``.
 
-Hypotheses come back best first by ``score`` (= confidence); poses refined to the same place
+Hypotheses come back best first by ``score`` (confidence minus the inliers' mean colour
+difference, so equally consistent poses rank by photometric fit); poses refined to the same place
 (5 cm, 2 degrees) are reported once. An ambiguous view (a symmetric room) gives several
 hypotheses with near-equal scores: ask for ``k >= 2`` to see them.
 
@@ -67,6 +69,7 @@ class LocalizerConfig:
     grey_weight: float = 0.5       # weight of the grey channel against the depth channel
     k: int = 1                     # hypotheses returned by default
     max_candidates: int = 8        # at most this many candidates are refined by eq. 7 ...
+    min_candidates: int = 3        # ... at least this many ...
     accept: float = 0.8            # ... stopping once k of them reach this confidence
     nms_radius: float = 0.5        # m: candidates closer than this (and nms_deg) are one
     nms_deg: float = 30.0
@@ -153,7 +156,8 @@ class Localizer:
         hyps: list[Hypothesis] = []
         for pose in cands:  # coarse order; stop once k are verified
             hyps.append(self._refine(frame, pose))
-            if len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
+            if len(hyps) >= cfg.min_candidates and \
+                    len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
                 break
         hyps = _dedupe(sorted(hyps, key=lambda h: -h.score))
         t3 = time.perf_counter()
@@ -175,12 +179,14 @@ class Localizer:
             pose = new
         pose[2] = float(wrap_angle(pose[2]))
         # verified against the last render (from the previous round's pose, within ~1 cm)
-        conf = self._confidence(frame, pred)
-        return Hypothesis(pose, conf, conf)
+        conf, colour = self._verify(frame, pred)
+        return Hypothesis(pose, conf - colour, conf)
 
-    def _confidence(self, frame: Frame, pred: Frame) -> float:
-        """Fraction of the sampled valid query pixels whose depth ``pred`` matches within
-        ``inlier_abs + inlier_rel * depth`` and whose colour within ``inlier_colour`` (mean over RGB)."""
+    def _verify(self, frame: Frame, pred: Frame) -> tuple[float, float]:
+        """``(confidence, colour)``: the fraction of the sampled valid query pixels whose depth
+        ``pred`` matches within ``inlier_abs + inlier_rel * depth`` and whose colour within
+        ``inlier_colour`` (mean over RGB), and the mean colour difference over those inliers
+        (the score is their difference: it ranks equally consistent poses by photometric fit)."""
         cfg = self.config
         dq = np.asarray(frame.depth).reshape(-1)[self._idx]
         vq = np.asarray(frame.valid).reshape(-1)[self._idx] & np.isfinite(dq)
@@ -188,13 +194,14 @@ class Localizer:
         vp = np.asarray(pred.valid).reshape(-1)[self._idx] & np.isfinite(dp)
         n = int(vq.sum())
         if n == 0:
-            return 0.0
+            return 0.0, 0.0
         both = vq & vp
         dc = np.abs(np.asarray(frame.rgb).reshape(-1, 3)[self._idx]
                     - np.asarray(pred.rgb).reshape(-1, 3)[self._idx]).mean(axis=1)
         ok = (both & (np.abs(np.where(both, dq - dp, np.inf)) <= cfg.inlier_abs + cfg.inlier_rel * np.where(vq, dq, 0))
               & (dc <= cfg.inlier_colour))
-        return float(ok.sum()) / n
+        m = int(ok.sum())
+        return m / n, (float(dc[ok].mean()) if m else 0.0)
 
 
 def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Bank:
