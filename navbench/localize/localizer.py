@@ -46,8 +46,8 @@ import numpy as np
 from navbench.errors import NavbenchError
 from navbench.geometry import Frame, Intrinsics, camera_pose, wrap_angle
 from navbench.localize import signature as sig
-from navbench.track.eq7 import TrackerConfig, pixel_table, prepare_reference
-from navbench.track.ours import align_gauss_newton
+from navbench.track.eq7 import (TrackerConfig, accumulate, linearization, pixel_table, prepare_reference,
+                                prior_terms, retract, sample_observation, to_planar)
 
 
 class LocalizationError(NavbenchError):
@@ -173,7 +173,7 @@ class Localizer:
         for _ in range(max(cfg.refine_rounds, 1)):
             pred = self._renderer.render(pose)
             ref = prepare_reference(pred, self.intrinsics, camera_pose(pose, self.camera_height))
-            new = align_gauss_newton(ref, frame, pose, self._gn, self._idx, self.camera_height)
+            new = align_planar(ref, frame, pose, self._gn, self._idx, self.camera_height)
             if not np.all(np.isfinite(new)):
                 break
             pose = new
@@ -202,6 +202,31 @@ class Localizer:
               & (dc <= cfg.inlier_colour))
         m = int(ok.sum())
         return m / n, (float(dc[ok].mean()) if m else 0.0)
+
+
+def align_planar(ref, frame: Frame, pose: np.ndarray, cfg: TrackerConfig, idx: np.ndarray,
+                 camera_height: float) -> np.ndarray:
+    """The ``ours`` alignment (:func:`navbench.track.ours.align_gauss_newton`, planar, without
+    its yaw search): iteratively reweighted Gauss-Newton of eq. 7 on the pixels ``idx`` from
+    ``pose``, the first ``gn_geo_iters`` iterations point-to-plane only. Written on
+    :mod:`navbench.track.eq7`'s pieces so that ``ours`` may call the localiser (kidnap
+    recovery) without an import cycle."""
+    obs = sample_observation(frame, ref.intr, idx)
+    state = np.asarray(pose, np.float64).copy()
+    scale = cfg.pixel_scale / max(len(idx), 1)
+    for it in range(cfg.gn_iters):
+        geo_only = it < cfg.gn_geo_iters
+        Trel, B, b = linearization("planar", state, ref.T_wc, camera_height)
+        acc = accumulate(ref, obs, Trel, B, b, cfg, photometric=not geo_only)
+        _, pg, pH = prior_terms("planar", state, pose, cfg, camera_height)
+        try:
+            delta = -np.linalg.solve(scale * acc.irls_H + pH, scale * acc.irls_g + pg)
+        except np.linalg.LinAlgError:
+            break
+        state = retract("planar", state, delta)
+        if not geo_only and np.abs(delta[:2]).max() < cfg.gn_tol[0] and abs(delta[2]) < cfg.gn_tol[1]:
+            break
+    return to_planar("planar", state)
 
 
 def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Bank:

@@ -120,3 +120,19 @@ def test_empty_map_is_one_line_error():
     full = VoxelMap(spec, np.ones(spec.shape, np.float32), np.zeros((*spec.shape, 3), np.float32), 0.5, {})
     with pytest.raises(LocalizationError, match="no free lattice point"):
         Localizer.build(full, HALF_CAMERA, CAMERA_HEIGHT, LocalizerConfig(lattice_step=0.5))
+
+
+def test_align_planar_is_ours_gauss_newton_without_yaw_search(loc):
+    from navbench.geometry import camera_pose
+    from navbench.localize.localizer import align_planar
+    from navbench.track.eq7 import prepare_reference
+    from navbench.track.ours import align_gauss_newton
+
+    cam = RaycastCamera(room(), HALF_CAMERA)
+    start = np.array([2.0, 1.5, 0.3])
+    ref = prepare_reference(cam.render(start), HALF_CAMERA, camera_pose(start))
+    frame = cam.render(np.array([2.06, 1.46, 0.33]))
+    a = align_planar(ref, frame, start, loc._gn, loc._idx, CAMERA_HEIGHT)
+    b = align_gauss_newton(ref, frame, start, loc._gn, loc._idx, CAMERA_HEIGHT)
+    np.testing.assert_array_equal(a, b)
+    assert np.hypot(*(a[:2] - [2.06, 1.46])) < 0.01
