@@ -27,6 +27,7 @@ def localization_table(rows: "Any") -> "Any":
                     "recall_100cm": np.mean(e <= 1.0), "recall_50cm_10deg": np.mean((e <= 0.5) & (h <= 10)),
                     "median_err_cm": 100 * np.median(e), "median_heading_deg": np.median(h),
                     "query_ms_median": np.nanmedian(ms), "query_ms_p90": np.nanpercentile(ms, 90),
+                    "query_cpu_ms_median": np.nanmedian(g["query_cpu_ms"].to_numpy(float)),
                     "image_diff_mean": np.nanmean(g["image_diff"].to_numpy(float)), "study": key[:12]})
     return pd.DataFrame(out)
 

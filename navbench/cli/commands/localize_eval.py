@@ -93,6 +93,7 @@ def register(app: typer.Typer) -> None:
                 ("heading <= 10 deg", f"{100 * s['heading_10deg']:.1f} %"),
                 ("median error", f"{100 * s['median_loc_err_m']:.2f} cm, {s['median_heading_err_deg']:.3f} deg"),
                 ("query time median / p90", f"{s['query_ms_median']:.1f} / {s['query_ms_p90']:.1f} ms"),
+                ("query CPU time median / p90", f"{s['query_cpu_ms_median']:.1f} / {s['query_cpu_ms_p90']:.1f} ms"),
                 ("bank build / size", f"{s['bank_build_s']:.1f} s / {s['bank_mb']:.1f} MB")]
         if changes:
             rows.append(("mean image difference", f"{100 * s['image_diff_mean']:.1f} %"))
@@ -116,7 +117,8 @@ def _store(rdb, run_id: int, res: dict, ref, level: str, map_key: str, changes: 
              "query_id": i, "true_x": t[0], "true_y": t[1], "true_theta": t[2],
              "est_x": e[0], "est_y": e[1], "est_theta": e[2], "loc_err_m": float(err[i]),
              "heading_err_deg": float(herr[i]), "confidence": float(res["confidence"][i]),
-             "query_ms": float(res["query_ms"][i]), "image_diff": float(res["diff"][i])}
+             "query_ms": float(res["query_ms"][i]), "query_cpu_ms": float(res["query_cpu_ms"][i]),
+             "image_diff": float(res["diff"][i])}
             for i, (t, e) in enumerate(zip(res["true"].tolist(), res["est"].tolist()))]
     n = rdb.add_localize_rows(run_id, rows)
     return {"run_id": run_id, "rows": n, "db": rdb.display_url}

@@ -252,7 +252,8 @@ class LocalizeRow(Base):
     loc_err_m: Mapped[float] = mapped_column(Float)
     heading_err_deg: Mapped[float] = mapped_column(Float)
     confidence: Mapped[float | None] = mapped_column(Float, nullable=True)
-    query_ms: Mapped[float | None] = mapped_column(Float, nullable=True)
+    query_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # wall clock
+    query_cpu_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # process CPU time
     image_diff: Mapped[float | None] = mapped_column(Float, nullable=True)
     recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
 
@@ -260,6 +261,6 @@ class LocalizeRow(Base):
 _LOCALIZE_FIELDS = (
     "study_key", "level", "map_key", "changes", "query_id", "true_x", "true_y", "true_theta",
     "est_x", "est_y", "est_theta", "loc_err_m", "heading_err_deg", "confidence", "query_ms",
-    "image_diff",
+    "query_cpu_ms", "image_diff",
 )
 _LOCALIZE_REQUIRED = ("study_key", "level", "query_id", "loc_err_m", "heading_err_deg")

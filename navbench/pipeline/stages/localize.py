@@ -182,13 +182,15 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
                              OC_BANDS[cfg.changes])
         true, est = np.zeros((cfg.queries, 3)), np.zeros((cfg.queries, 3))
         conf, ms, diff = np.zeros(cfg.queries), np.zeros(cfg.queries), np.zeros(cfg.queries)
+        cpu = np.zeros(cfg.queries)
         update = ctx.progress(f"localizing {level.name}", cfg.queries)
         for n, (pose, f, dif) in enumerate(q):
             h = loc.localize(f)[0]
             true[n], diff[n] = pose, dif
             est[n], conf[n], ms[n] = h.pose, h.confidence, loc.last_timing["total"]
+            cpu[n] = loc.last_timing["cpu"]
             update(n + 1)
-        np.savez(d / LOCALIZE_FILE, true=true, est=est, confidence=conf, query_ms=ms,
+        np.savez(d / LOCALIZE_FILE, true=true, est=est, confidence=conf, query_ms=ms, query_cpu_ms=cpu,
                  diff=diff, info=np.array(json.dumps({"bank_build_s": bank.meta["build_s"],
                                                              "bank_bytes": bank.meta["bytes"]})))
 
@@ -221,6 +223,8 @@ def summarise_localization(res: dict) -> dict:
         "heading_10deg": float(np.mean(herr <= 10)),
         "median_loc_err_m": float(np.median(err)), "median_heading_err_deg": float(np.median(herr)),
         "query_ms_median": float(np.median(ms)), "query_ms_p90": float(np.percentile(ms, 90)),
+        "query_cpu_ms_median": float(np.median(res["query_cpu_ms"])) if "query_cpu_ms" in res else None,
+        "query_cpu_ms_p90": float(np.percentile(res["query_cpu_ms"], 90)) if "query_cpu_ms" in res else None,
         "image_diff_mean": float(np.mean(res["diff"])),
         "bank_build_s": float(res["info"]["bank_build_s"]), "bank_mb": res["info"]["bank_bytes"] / 1e6,
     }
