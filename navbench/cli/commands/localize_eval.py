@@ -26,6 +26,8 @@ def register(app: typer.Typer) -> None:
                                     "removed), localised in the original's map."),
         camera: str = typer.Option("half", "--camera", help="half or paper."),
         seed: int = typer.Option(0, "--seed", min=0, help="Query (and changed-level) seed."),
+        option: list[str] = typer.Option([], "--option", "-o", help="Localiser setting KEY=VALUE "
+                                         "(a LocalizerConfig field, repeatable), e.g. min_candidates=5."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
         db: str = typer.Option(None, "--db", help=DB_HELP),
         no_store: bool = typer.Option(False, "--no-store", help="Do not store the per-query rows "
@@ -53,7 +55,8 @@ def register(app: typer.Typer) -> None:
         changes = changes.upper() if changes else None
         camera_by_name(camera)
         prof = load_profile(profile) if map_ == "fit" else None
-        cfg = LocalizeEvalConfig(queries=queries, seed=seed, camera=camera, changes=changes).resolved()
+        cfg = LocalizeEvalConfig(queries=queries, seed=seed, camera=camera, changes=changes,
+                                 localizer=_localizer_config(option)).resolved()
         t0 = time.perf_counter()
 
         def body(ui):
@@ -103,6 +106,39 @@ def register(app: typer.Typer) -> None:
         if stored:
             console.print(f"stored {stored['rows']} new localisation rows (run {stored['run_id']}) in "
                           f"{stored['db']}", markup=False)
+
+
+def _localizer_config(items: list[str]):
+    """``--option KEY=VALUE`` items applied to the default :class:`LocalizerConfig` (values read
+    as JSON when they parse, else kept as strings)."""
+    import json
+
+    from navbench.errors import ConfigError
+    from navbench.localize import LocalizerConfig
+    from navbench.track.base import config_from_options
+
+    opts = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--option expects KEY=VALUE, got {item!r}")
+        try:
+            opts[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            opts[key.strip()] = value
+    base = LocalizerConfig()
+    for k, v in list(opts.items()):
+        d = getattr(base, k, None)
+        if d is None:
+            continue  # unknown: named below
+        if isinstance(d, float) and isinstance(v, (int, float)) and not isinstance(v, bool):
+            opts[k] = float(v)
+        elif type(v) is not type(d):
+            raise ConfigError(f"--option {k}: expected a {type(d).__name__}, got {v!r}")
+    try:
+        return config_from_options(base, opts, "--option localizer")
+    except Exception as e:  # TrackingError for an unknown name: say which option
+        raise ConfigError(str(e)) from None
 
 
 def _store(rdb, run_id: int, res: dict, ref, level: str, map_key: str, changes: str | None) -> dict:
