@@ -33,3 +33,9 @@ def test_changed_from_bad_inputs(project):
     assert_clean_error(nb("make-level", "x", "--seed", "1", "--changed-from", "tiny", "--changes", "99"),
                        "--changes")
     assert_clean_error(nb("make-level", "x", "--seed", "1", "--changed-from", "tiny"), "--changes")
+
+
+def test_bad_localizer_options(project):
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "nope=1"), "nope")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins=abc"), "bins")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins"), "--option")
