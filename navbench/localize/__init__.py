@@ -6,6 +6,6 @@ free poses, then :meth:`Localizer.localize` answers a single RGB-D frame with ra
 :class:`Hypothesis` poses. See :mod:`navbench.localize.localizer`.
 """
 
-from navbench.localize.localizer import Bank, Hypothesis, Localizer, LocalizerConfig
+from navbench.localize.localizer import Bank, Hypothesis, LocalizationError, Localizer, LocalizerConfig
 
-__all__ = ["Bank", "Hypothesis", "Localizer", "LocalizerConfig"]
+__all__ = ["Bank", "Hypothesis", "LocalizationError", "Localizer", "LocalizerConfig"]
