@@ -12,7 +12,10 @@ Build (once per map and camera, :meth:`Localizer.build`)
 Query (:meth:`Localizer.localize`)
     1. the query frame's signature over its field of view (the same elevations and bins);
     2. the squared distance to every lattice point's panorama at every circular shift by FFT
-       (:func:`navbench.localize.signature.circular_costs`): best shift = heading;
+       (:func:`navbench.localize.signature.circular_costs`): best shift = heading; the
+       ``truncate_top`` best points are re-ranked by a truncated L1 distance at that shift
+       (:func:`~navbench.localize.signature.truncated_costs`: changed furniture costs at most
+       ``truncate`` per bin);
     3. candidates, best first after non-maximum suppression (``nms_radius``, ``nms_deg``), are
        refined by the ``ours`` alignment (planar Gauss-Newton of eq. 7 against the map's render
        at the candidate, ``refine_rounds`` render + align rounds, no prior to speak of) and
@@ -34,6 +37,10 @@ beats inverse range (top-8 recall 96.7 vs 80.0 %), a 0.125 m lattice beats 0.25 
 weight, elevations and clipping range mattered little. Up to 24 candidates (not 8) are refined
 when none verifies: the verification of the right pose survives changed furniture (confidence
 ~0.9 at 6 % changed pixels) better than the coarse ranking does (OC1, 30 queries: 63 -> 70 %).
+Re-ranking the 1000 points of best L2 cost by the truncated L1 cost (tau 0.1) at their best
+shift brings the right place among the 24 first candidates for 84-92 % of OC1 queries (L2
+alone: 72 %), 76-84 % of OC3 (52 %), and changes nothing on unchanged rooms (100 %; 25-40
+queries each, tune-house).
 """
 
 from __future__ import annotations
@@ -69,6 +76,8 @@ class LocalizerConfig:
     depth_feature: str = "range"   # signature depth channel: "range" (clipped) or "inverse"
     feature_range: float = 8.0     # m: ranges are clipped here ("range")
     grey_weight: float = 0.5       # weight of the grey channel against the depth channel
+    truncate: float = 0.1          # > 0: re-rank the truncate_top points with the best L2 cost ...
+    truncate_top: int = 1000       # ... at their best shift by the truncated L1 cost (robust)
     k: int = 1                     # hypotheses returned by default
     max_candidates: int = 24       # at most this many candidates are refined by eq. 7 ...
     min_candidates: int = 3        # ... at least this many ...
@@ -161,6 +170,14 @@ class Localizer:
                                 cfg.depth_feature, cfg.feature_range)
         t1 = time.perf_counter()
         D = self._corr.costs(Q)
+        if cfg.truncate > 0:  # robust re-ranking of the best points at their best L2 shift
+            best = np.argmin(D, axis=1)
+            top = np.arange(len(D))
+            if cfg.truncate_top < len(D):
+                top = np.argpartition(D[top, best], cfg.truncate_top)[: cfg.truncate_top]
+            rob = sig.truncated_costs(self._pano_top(top), Q, best[top, None], cfg.truncate)
+            D = np.full_like(D, np.inf)
+            D[top, best[top]] = rob[:, 0]
         cands = candidates(D, self.bank.points, max(k, cfg.max_candidates), cfg)
         t2 = time.perf_counter()
         n = cfg.refine_stride
@@ -177,6 +194,9 @@ class Localizer:
                             "refine": 1e3 * (t3 - t2), "total": 1e3 * (t3 - t0),
                             "cpu": 1e3 * (time.process_time() - c0)}
         return hyps[:k]
+
+    def _pano_top(self, top: np.ndarray) -> np.ndarray:
+        return self.bank.pano[top]
 
     def _refine(self, frame: Frame, pose: np.ndarray) -> Hypothesis:
         """Eq. 7 alignment of ``frame`` (the query's every ``refine_stride``-th pixel) against

@@ -147,6 +147,30 @@ def _channel_products(Fr, Fi, Qr, Qi, out_r, out_i):
                 out_i[n, k] += a * Qi[c, k] + b * Qr[c, k]
 
 
+@njit(cache=True, fastmath=True)
+def truncated_costs(pano, Q, shifts, tau):
+    """``out (N, S)``: ``sum_{c, r} min(|Q[c, r] - pano[n, c, (shifts[n, j] + r - R) % bins]|, tau)``,
+    a robust window distance (changed columns cost at most ``tau`` each) at given shifts."""
+    N, C, A = pano.shape
+    S = shifts.shape[1]
+    W = Q.shape[1]
+    R = (W - 1) // 2
+    out = np.empty((N, S))
+    for n in range(N):
+        for j in range(S):
+            s0 = (shifts[n, j] - R) % A
+            acc = 0.0
+            for c in range(C):
+                for r in range(W):
+                    i = s0 + r
+                    if i >= A:
+                        i -= A
+                    d = abs(Q[c, r] - pano[n, c, i])
+                    acc += min(d, tau)
+            out[n, j] = acc
+    return out
+
+
 class Correlator:
     """The FFT form of the panoramas ``pano (N, C, bins)`` for windows of ``-R .. R`` bins."""
 

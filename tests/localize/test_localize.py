@@ -136,3 +136,16 @@ def test_align_planar_is_ours_gauss_newton_without_yaw_search(loc):
     b = align_gauss_newton(ref, frame, start, loc._gn, loc._idx, CAMERA_HEIGHT)
     np.testing.assert_array_equal(a, b)
     assert np.hypot(*(a[:2] - [2.06, 1.46])) < 0.01
+
+
+def test_truncated_costs_against_direct_sums():
+    rng = np.random.default_rng(1)
+    pano = rng.random((4, 3, 32)).astype(np.float32)
+    Q = rng.random((3, 7))
+    shifts = rng.integers(0, 32, (4, 2))
+    got = sig.truncated_costs(pano, Q, shifts, 0.3)
+    for n in range(4):
+        for j in range(2):
+            idx = (shifts[n, j] + np.arange(-3, 4)) % 32
+            want = np.minimum(np.abs(Q - pano[n][:, idx]), 0.3).sum()
+            assert got[n, j] == pytest.approx(want, rel=1e-6)
