@@ -281,27 +281,30 @@ def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Ba
 
 
 def candidates(D: np.ndarray, points: np.ndarray, k: int, cfg: LocalizerConfig) -> list[np.ndarray]:
-    """The ``k`` best (lattice point, heading) of the cost table ``D (N, bins)``, each a local
-    minimum over the others within ``nms_radius`` m and ``nms_deg`` degrees (non-maximum
-    suppression), best first, as poses ``(x, y, theta)``."""
+    """The ``k`` best (lattice point, heading) of the cost table ``D (N, bins)`` (``inf``: not a
+    candidate), each a local minimum over the others within ``nms_radius`` m and ``nms_deg``
+    degrees (non-maximum suppression), best first, as poses ``(x, y, theta)``."""
     bins = D.shape[1]
     best_s = np.argmin(D, axis=1)
     best = D[np.arange(len(D)), best_s]
-    order = np.argsort(best, kind="stable")
-    heads = best_s * (2 * math.pi / bins)
-    kept: list[int] = []
-    for i in order:
-        close = False
-        for j in kept:
-            if (np.hypot(*(points[i] - points[j])) < cfg.nms_radius
-                    and abs(float(wrap_angle(heads[i] - heads[j]))) < math.radians(cfg.nms_deg)):
-                close = True
-                break
-        if not close:
-            kept.append(int(i))
-            if len(kept) >= k:
-                break
-    return [np.array([points[i, 0], points[i, 1], float(wrap_angle(heads[i]))]) for i in kept]
+    idx = np.flatnonzero(np.isfinite(best))
+    idx = idx[np.argsort(best[idx], kind="stable")]
+    heads = best_s[idx] * (2 * math.pi / bins)
+    xy = points[idx]
+    alive = np.ones(len(idx), bool)
+    out: list[np.ndarray] = []
+    pos = 0
+    while len(out) < k:
+        while pos < len(idx) and not alive[pos]:
+            pos += 1
+        if pos >= len(idx):
+            break
+        out.append(np.array([xy[pos, 0], xy[pos, 1], float(wrap_angle(heads[pos]))]))
+        near = (np.hypot(xy[:, 0] - xy[pos, 0], xy[:, 1] - xy[pos, 1]) < cfg.nms_radius) & \
+            (np.abs(wrap_angle(heads - heads[pos])) < math.radians(cfg.nms_deg))
+        alive &= ~near
+        pos += 1
+    return out
 
 
 def _dedupe(hyps: list[Hypothesis]) -> list[Hypothesis]:
