@@ -462,12 +462,16 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
                     load_map)
     _section_maps(page, db.maps_frame(), load_map)
     _section_bench(page, db.bench_frame())
+    from navbench.pipeline.report_localize import section_localization  # issue 14
+
+    section_localization(page, db, Path(levels_dir))
 
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
         ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), ("failures", "Failures"),
         ("scores", "Scores"), ("tracking", "Tracking"),
-        ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench")))
+        ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench"),
+        ("localization", "Localisation")))
     doc = (
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
         "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"

@@ -63,6 +63,10 @@ def register(app: typer.Typer) -> None:
         benchmark: bool = typer.Option(False, "--benchmark", help="(Re)generate all the benchmark "
                                        "levels (BENCHMARK_LEVELS in navbench.levelgen)."),
         force: bool = typer.Option(False, "--force", help="Overwrite an existing, different file."),
+        changed_from: str = typer.Option(None, "--changed-from", help="Derive NAME from this "
+                                         "level (name or .json path) by moving, adding and "
+                                         "removing furniture (RNR-Map's changed rooms)."),
+        changes: int = typer.Option(None, "--changes", help="Furniture edits with --changed-from."),
     ):
         """Generate a level and write levels/NAME.json in the current directory."""
         import json
@@ -81,6 +85,18 @@ def register(app: typer.Typer) -> None:
             raise ConfigError("give a level NAME (or --benchmark)")
         if seed is None:
             raise ConfigError("--seed is required")
+        if (changed_from is None) != (changes is None):
+            raise ConfigError("--changed-from and --changes go together")
+        if changed_from is not None:
+            if from_houseexpo is not None or rooms is not None or obstacles is not None or size is not None:
+                raise ConfigError("--changed-from takes no --from-houseexpo, --rooms, --obstacles or --size")
+            from navbench.levelgen.changed import change_level
+            from navbench.levelio import resolve_level
+
+            level = change_level(resolve_level(changed_from), name, changes, seed)
+            path, what = _write(level, force)
+            console.print(_summary(level, path, what), soft_wrap=True)
+            return
         if from_houseexpo is not None:
             if kind != "house" or rooms is not None:
                 raise ConfigError("--from-houseexpo takes no --kind or --rooms")

@@ -312,3 +312,41 @@ class RunTimingRow(Base):
 
 
 _RUN_TIMING_FIELDS = ("kind", "name", "seconds", "count", "cached")
+
+
+# -- issue 14: localisation queries (navbench localize-eval) ------------------------------------
+
+class LocalizeRow(Base):
+    """One localisation query of a localize-eval study (issue 14): true and found pose, errors,
+    confidence, query time; ``changes`` is the object-change difficulty (None: unchanged)."""
+
+    __tablename__ = "localize"
+    __table_args__ = (UniqueConstraint("study_key", "query_id", name="uq_localize_key"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    study_key: Mapped[str] = mapped_column(String(128))
+    level: Mapped[str] = mapped_column(String(128))
+    map_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    changes: Mapped[str | None] = mapped_column(String(16), nullable=True)
+    query_id: Mapped[int] = mapped_column(Integer)
+    true_x: Mapped[float] = mapped_column(Float)
+    true_y: Mapped[float] = mapped_column(Float)
+    true_theta: Mapped[float] = mapped_column(Float)
+    est_x: Mapped[float] = mapped_column(Float)
+    est_y: Mapped[float] = mapped_column(Float)
+    est_theta: Mapped[float] = mapped_column(Float)
+    loc_err_m: Mapped[float] = mapped_column(Float)
+    heading_err_deg: Mapped[float] = mapped_column(Float)
+    confidence: Mapped[float | None] = mapped_column(Float, nullable=True)
+    query_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # wall clock
+    query_cpu_ms: Mapped[float | None] = mapped_column(Float, nullable=True)  # process CPU time
+    image_diff: Mapped[float | None] = mapped_column(Float, nullable=True)
+    recorded: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+_LOCALIZE_FIELDS = (
+    "study_key", "level", "map_key", "changes", "query_id", "true_x", "true_y", "true_theta",
+    "est_x", "est_y", "est_theta", "loc_err_m", "heading_err_deg", "confidence", "query_ms",
+    "query_cpu_ms", "image_diff",
+)
+_LOCALIZE_REQUIRED = ("study_key", "level", "query_id", "loc_err_m", "heading_err_deg")

@@ -37,6 +37,8 @@ from navbench.pipeline.db.schema import (
     _RUN_TIMING_FIELDS,
     _TRACKING_FIELDS,
     _TRACKING_REQUIRED,
+    _LOCALIZE_FIELDS,
+    _LOCALIZE_REQUIRED,
     RUN_STATUSES,
     SCHEMA_VERSION,
     Base,
@@ -50,6 +52,7 @@ from navbench.pipeline.db.schema import (
     TaskRow,
     TaskSetRow,
     TrackingRow,
+    LocalizeRow,
     _add_missing_columns,
     resolve_db_url,
 )
@@ -459,19 +462,39 @@ class ResultsDB:
         already stored; returns how many were new."""
         clean = self._normalise(rows, _SEQUENCE_FIELDS, _SEQUENCE_REQUIRED, "sequence_tracking",
                                 json_fields=("estimator_options",))
+        return self._add_run_rows(run_id, SequenceTrackingRow, clean, ("sequence_key",))
+
+    def sequence_frame(self, run_ids: list[int] | None = None, **filters) -> "pandas.DataFrame":
+        """The ``sequence_tracking`` rows, oldest first (``filters``: column == value or a list)."""
+        return self._run_rows_frame(SequenceTrackingRow, run_ids, filters)
+
+    # -- localisation (issue 14) ----------------------------------------------------------------
+
+    def add_localize_rows(self, run_id: int, rows: list[dict]) -> int:
+        """Insert localize-eval rows (one per query, see :class:`LocalizeRow`), ignoring
+        duplicates of (study_key, query_id); returns how many were new."""
+        clean = self._normalise(rows, _LOCALIZE_FIELDS, _LOCALIZE_REQUIRED, "localize")
+        return self._add_run_rows(run_id, LocalizeRow, clean, ("study_key", "query_id"))
+
+    def localize_frame(self, run_ids: list[int] | None = None, **filters) -> "pandas.DataFrame":
+        """The ``localize`` rows, oldest first (``filters``: column == value or a list)."""
+        return self._run_rows_frame(LocalizeRow, run_ids, filters)
+
+    def _add_run_rows(self, run_id: int, table, clean: list[dict], unique: tuple[str, ...]) -> int:
+        """Stamp normalised rows with ``run_id`` and the time, insert them into ``table``
+        ignoring rows whose ``unique`` columns are already stored; returns how many were new."""
         now = _utcnow()
         for r in clean:
             r["run_id"] = int(run_id)
             r["recorded"] = now
         with self._begin() as conn:
-            return self._insert_ignore(conn, SequenceTrackingRow, clean, ("sequence_key",))
+            return self._insert_ignore(conn, table, clean, unique)
 
-    def sequence_frame(self, run_ids: list[int] | None = None, **filters) -> "pandas.DataFrame":
-        """The ``sequence_tracking`` rows, oldest first (``filters``: column == value or a list)."""
-        stmt = select(SequenceTrackingRow.__table__).order_by(SequenceTrackingRow.id)
+    def _run_rows_frame(self, table, run_ids, filters) -> "pandas.DataFrame":
+        stmt = select(table.__table__).order_by(table.id)
         if run_ids is not None:
-            stmt = stmt.where(SequenceTrackingRow.run_id.in_([int(r) for r in run_ids]))
-        return self._frame(_apply_filters(stmt, SequenceTrackingRow, filters))
+            stmt = stmt.where(table.run_id.in_([int(r) for r in run_ids]))
+        return self._frame(_apply_filters(stmt, table, filters))
 
     # -- bench ----------------------------------------------------------------------------------
 

@@ -1,0 +1,219 @@
+"""Panoramic signatures and their circular correlation (the localiser's coarse search).
+
+A *signature* of an RGB-D image is, per image column, the inverse horizontal range ``1 / r``
+(``r = z * sqrt(1 + x_c^2)`` for z-depth ``z`` and ``x_c = (i - cx) / fx``; 0 where nothing is
+seen) and the grey level, each at ``rows`` elevations ``y_c = row_top + j * row_step``; columns
+are resampled (linearly) to uniform heading bins of ``2 pi / bins``. Because the camera is
+planar-mounted, a column's signature depends only on the camera position and the column's world
+direction, so a 360-degree panorama of signatures per position holds every heading, and a query
+with field of view ``+-R`` bins is a window of it: the squared distance at every circular shift
+``s`` (heading ``2 pi s / bins``) is
+
+    D[s] = sum_r |Q_r|^2 + sum_r |P_{s+r}|^2 - 2 sum_r <Q_r, P_{s+r}>,
+
+whose last sum is a circular cross-correlation (one FFT product per position,
+:func:`circular_costs`; :func:`circular_costs_direct` is the reference it is tested against).
+Bin ``b`` of a panorama looks along world angle ``2 pi b / bins``; relative bin ``r`` of a query
+looks ``2 pi r / bins`` counter-clockwise of the heading (image left).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from scipy import ndimage
+
+from navbench.geometry import Frame, Intrinsics
+
+
+def lattice_points(occ2d: np.ndarray, xs: np.ndarray, ys: np.ndarray, step: float,
+                   clearance: float) -> np.ndarray:
+    """Positions ``(N, 2)`` every ``step`` metres (a lattice through multiples of ``step``)
+    inside the raster ``(xs, ys)`` whose cell is free and at least ``clearance`` metres (plus
+    half a cell) from every occupied cell of ``occ2d (nx, ny)``."""
+    occ2d = np.asarray(occ2d, bool)
+    if occ2d.size == 0 or len(xs) < 2 or len(ys) < 2:
+        return np.zeros((0, 2))
+    dx, dy = float(xs[1] - xs[0]), float(ys[1] - ys[0])
+    dist = ndimage.distance_transform_edt(~occ2d, sampling=(dx, dy))
+    if not occ2d.any():  # nothing to keep away from: stay inside the raster
+        dist = np.full(occ2d.shape, np.inf)
+    gx = np.arange(math.ceil(xs[0] / step), math.floor(xs[-1] / step) + 1) * step
+    gy = np.arange(math.ceil(ys[0] / step), math.floor(ys[-1] / step) + 1) * step
+    X, Y = np.meshgrid(gx, gy, indexing="ij")
+    ix = np.clip(np.rint((X - xs[0]) / dx).astype(int), 0, len(xs) - 1)
+    iy = np.clip(np.rint((Y - ys[0]) / dy).astype(int), 0, len(ys) - 1)
+    keep = dist[ix, iy] > clearance + 0.5 * max(dx, dy)
+    return np.stack([X[keep], Y[keep]], axis=1)
+
+
+def elevations(rows: int, row_top: float, row_step: float) -> np.ndarray:
+    """The signature's ``y_c`` values (rows of the normalised image plane, down positive)."""
+    return row_top + row_step * np.arange(rows)
+
+
+def range_feature(r: np.ndarray, valid: np.ndarray, kind: str, max_range: float) -> np.ndarray:
+    """The depth channel of a signature from horizontal ranges ``r`` (m): ``inverse`` ``1 / r``
+    (0 where nothing is seen), ``range`` ``min(r, max_range) / max_range`` (1 where nothing is
+    seen; a translation by ``d`` changes it by at most ``d / max_range``)."""
+    if kind == "inverse":
+        return np.where(valid, 1.0 / np.where(valid, r, 1.0), 0.0)
+    return np.where(valid, np.minimum(np.where(valid, r, max_range), max_range), max_range) / max_range
+
+
+def column_signature(frame: Frame, intr: Intrinsics, ycs: np.ndarray,
+                     grey_weight: float, kind: str = "range", max_range: float = 8.0) -> np.ndarray:
+    """Per-column signature ``(2 * len(ycs), W)`` float64 of ``frame``: the depth channel
+    (:func:`range_feature` of the horizontal range) at each elevation, then ``grey_weight`` x
+    grey level at each (rows interpolated linearly)."""
+    H, W = intr.shape
+    v = np.clip(intr.cy + np.asarray(ycs) * intr.fy, 0.0, H - 1.0)
+    j0 = np.floor(v).astype(int)
+    j1 = np.minimum(j0 + 1, H - 1)
+    w = (v - j0)[:, None]
+    xc = (np.arange(W) - intr.cx) / intr.fx
+    valid = np.asarray(frame.valid, bool) & np.isfinite(frame.depth)
+    r = np.where(valid, frame.depth, 1.0) * np.sqrt(1.0 + xc * xc)
+    inv = range_feature(r, valid, kind, max_range)
+    grey = np.asarray(frame.rgb, np.float64).mean(axis=2) * grey_weight
+    out = np.empty((2 * len(ycs), W))
+    out[: len(ycs)] = (1 - w) * inv[j0] + w * inv[j1]
+    out[len(ycs):] = (1 - w) * grey[j0] + w * grey[j1]
+    return out
+
+
+def resample_columns(sig: np.ndarray, intr: Intrinsics, angles: np.ndarray) -> np.ndarray:
+    """``sig (C, W)`` at relative headings ``angles`` (rad, counter-clockwise = image left),
+    interpolated linearly between the columns ``u = cx - fx tan(angle)``."""
+    u = np.clip(intr.cx - intr.fx * np.tan(angles), 0.0, intr.width - 1.0)
+    i0 = np.minimum(np.floor(u).astype(int), intr.width - 2)
+    w = u - i0
+    return sig[:, i0] * (1 - w) + sig[:, i0 + 1] * w
+
+
+def half_window(intr: Intrinsics, bins: int) -> int:
+    """``R``: the query window is relative bins ``-R .. R``, all inside the image."""
+    half_fov = min(math.atan(intr.cx / intr.fx), math.atan((intr.width - 1 - intr.cx) / intr.fx))
+    return max(int(math.floor(half_fov / (2 * math.pi / bins) + 1e-9)), 0)
+
+
+def query_signature(frame: Frame, intr: Intrinsics, ycs: np.ndarray, grey_weight: float,
+                    bins: int, kind: str = "range", max_range: float = 8.0) -> np.ndarray:
+    """The query window ``(C, 2R + 1)``: relative bins ``-R .. R`` (:func:`half_window`)."""
+    R = half_window(intr, bins)
+    angles = np.arange(-R, R + 1) * (2 * math.pi / bins)
+    return resample_columns(column_signature(frame, intr, ycs, grey_weight, kind, max_range), intr, angles)
+
+
+def quadrant_intrinsics(bins: int, rows: int, row_top: float, row_step: float) -> Intrinsics:
+    """A thin 90-degree camera whose rows are the signature's elevations exactly (two columns
+    per heading bin)."""
+    W = bins // 2 + 1
+    c = (W - 1) / 2.0
+    return Intrinsics(W, rows, c, 1.0 / row_step, c, -row_top / row_step)
+
+
+def panorama(render, xy, bins: int, ycs: np.ndarray, grey_weight: float,
+             quad: Intrinsics, kind: str = "range", max_range: float = 8.0) -> np.ndarray:
+    """The 360-degree signature ``(C, bins)`` at position ``xy``: four renders
+    ``render(pose) -> Frame`` (camera ``quad``) at headings 0, 90, 180, 270 degrees."""
+    out = np.empty((2 * len(ycs), bins))
+    b = np.arange(bins)
+    for q in range(4):
+        head = q * math.pi / 2
+        rel = (b * 2 * math.pi / bins - head + math.pi) % (2 * math.pi) - math.pi
+        sel = np.abs(rel) <= math.pi / 4 + 1e-12
+        sig = column_signature(render((xy[0], xy[1], head)), quad, ycs, grey_weight, kind, max_range)
+        out[:, sel] = resample_columns(sig, quad, rel[sel])
+    return out
+
+
+@njit(cache=True, fastmath=True)
+def _channel_products(Fr, Fi, Qr, Qi, out_r, out_i):
+    """``out[n, k] = sum_c F[n, c, k] * FQ[c, k]`` in real arithmetic (float32, one thread: no
+    BLAS thread pool to oversubscribe a busy CPU)."""
+    N, C, K = Fr.shape
+    for n in range(N):
+        for k in range(K):
+            out_r[n, k] = 0.0
+            out_i[n, k] = 0.0
+        for c in range(C):
+            for k in range(K):
+                a = Fr[n, c, k]
+                b = Fi[n, c, k]
+                out_r[n, k] += a * Qr[c, k] - b * Qi[c, k]
+                out_i[n, k] += a * Qi[c, k] + b * Qr[c, k]
+
+
+@njit(cache=True, fastmath=True)
+def truncated_costs(pano, Q, shifts, tau):
+    """``out (N, S)``: ``sum_{c, r} min(|Q[c, r] - pano[n, c, (shifts[n, j] + r - R) % bins]|, tau)``,
+    a robust window distance (changed columns cost at most ``tau`` each) at given shifts."""
+    N, C, A = pano.shape
+    S = shifts.shape[1]
+    W = Q.shape[1]
+    R = (W - 1) // 2
+    out = np.empty((N, S))
+    for n in range(N):
+        for j in range(S):
+            s0 = (shifts[n, j] - R) % A
+            acc = 0.0
+            for c in range(C):
+                for r in range(W):
+                    i = s0 + r
+                    if i >= A:
+                        i -= A
+                    d = abs(Q[c, r] - pano[n, c, i])
+                    acc += min(d, tau)
+            out[n, j] = acc
+    return out
+
+
+class Correlator:
+    """The FFT form of the panoramas ``pano (N, C, bins)`` for windows of ``-R .. R`` bins."""
+
+    def __init__(self, pano: np.ndarray, R: int):
+        self.bins = pano.shape[-1]
+        self.R = R
+        A = self.bins
+        F = np.fft.rfft(pano, axis=-1)  # (N, C, k)
+        self.Fr = np.ascontiguousarray(F.real, dtype=np.float32)
+        self.Fi = np.ascontiguousarray(F.imag, dtype=np.float32)
+        box = np.zeros(A)
+        box[np.arange(-R, R + 1) % A] = 1.0
+        e = np.fft.irfft(np.conj(np.fft.rfft(box)) * np.fft.rfft((pano.astype(np.float64) ** 2).sum(1), axis=-1),
+                         n=A, axis=-1)
+        self.energy = e.astype(np.float32)  # (N, bins): sum_r |P_{s+r}|^2
+
+    def costs(self, Q: np.ndarray) -> np.ndarray:
+        """``D (N, bins)``: squared distance of the window ``Q (C, 2R + 1)`` at every shift."""
+        A = self.bins
+        qpad = np.zeros((Q.shape[0], A))
+        qpad[:, np.arange(-self.R, self.R + 1) % A] = Q
+        FQ = np.conj(np.fft.rfft(qpad, axis=-1))  # (C, k)
+        Qr = np.ascontiguousarray(FQ.real, dtype=np.float32)
+        Qi = np.ascontiguousarray(FQ.imag, dtype=np.float32)
+        N, _, K = self.Fr.shape
+        pr, pi = np.empty((N, K), np.float32), np.empty((N, K), np.float32)
+        _channel_products(self.Fr, self.Fi, Qr, Qi, pr, pi)
+        corr = np.fft.irfft(pr + 1j * pi, n=A, axis=-1)
+        return float((Q ** 2).sum()) + self.energy - 2.0 * corr
+
+
+def circular_costs(pano: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``D (N, bins)`` by FFT (:class:`Correlator`) for panoramas ``(N, C, bins)``."""
+    R = (Q.shape[1] - 1) // 2
+    return Correlator(pano, R).costs(Q)
+
+
+def circular_costs_direct(pano: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """Reference for :func:`circular_costs`: the sums written out."""
+    N, C, A = pano.shape
+    R = (Q.shape[1] - 1) // 2
+    out = np.zeros((N, A))
+    for s in range(A):
+        idx = (s + np.arange(-R, R + 1)) % A
+        out[:, s] = ((pano[:, :, idx] - Q[None]) ** 2).sum(axis=(1, 2))
+    return out

@@ -1,0 +1,41 @@
+"""Probe (issue 14): bad input to localize-eval and make-level --changed-from is one line."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tests.bad_input.conftest import assert_clean_error, assert_usage_error, nb
+
+
+def test_unknown_change_difficulty(project):
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "--changes", "OC9"), "--changes")
+
+
+def test_missing_map_file(project):
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "nope.npz"), "--map")
+
+
+def test_zero_queries(project):
+    assert_usage_error(nb("localize-eval", "tiny", "--map", "true", "--queries", "0"), "--queries")
+
+
+def test_empty_map_file(project):
+    from navbench.worldmodel.grid import GridSpec, VoxelMap, save_map
+
+    spec = GridSpec((0.0, 0.0, 0.0), (3.0, 3.0, 1.2), (12, 12, 4))
+    save_map(VoxelMap(spec, np.zeros(spec.shape, np.float32), np.zeros((*spec.shape, 3), np.float32), 0.5, {}),
+             project / "empty.npz")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "empty.npz", "--no-store"), "empty map")
+
+
+def test_changed_from_bad_inputs(project):
+    assert_clean_error(nb("make-level", "x", "--seed", "1", "--changed-from", "nope", "--changes", "2"), "nope")
+    assert_clean_error(nb("make-level", "x", "--seed", "1", "--changed-from", "tiny", "--changes", "99"),
+                       "--changes")
+    assert_clean_error(nb("make-level", "x", "--seed", "1", "--changed-from", "tiny"), "--changes")
+
+
+def test_bad_localizer_options(project):
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "nope=1"), "nope")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins=abc"), "bins")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins"), "--option")
