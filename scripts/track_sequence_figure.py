@@ -11,12 +11,11 @@ Steps (every file under --work, default results/figures/track-sequence/):
    --walk-seed, tracking-study noise), rendered by the ray-cast camera at every true pose and
    exported with navbench.worldmodel.tum.export_views (kept if already there);
 2. CLI path: `navbench fit-map --views DIR --steps N --json` (issue 13's level-free fit), then
-   `navbench track-sequence DIR --map KEY --odometry gt+mid --json --no-store`. Where this
-   navbench's fit-map cannot fit a TUM directory yet, the CLI path tracks on the API's map file
-   instead and says so (the tracking is then still compared, the fit is not);
-3. API path: import_views -> fit_map (the FitConfig the CLI's profile resolves: --profile with
-   --steps) -> save and load the map (as the fit-map stage stores it: colour as float16; the
-   unsaved float32 colours move the ATE by ~1e-6 m) -> navbench.pipeline.tracking.track_sequence.
+   `navbench track-sequence DIR --map KEY --odometry gt+mid --json --no-store`;
+3. API path: import_views -> fit_views (the level-free fit with the CLI's default held-out split
+   and the FitConfig the CLI's profile resolves: --profile with --steps) -> save and load the map
+   (as the fit-map stage stores it: colour as float16; the unsaved float32 colours move the ATE
+   by ~1e-6 m) -> navbench.pipeline.tracking.track_sequence.
 """
 
 from __future__ import annotations
@@ -56,7 +55,7 @@ def main() -> int:
     from navbench.pipeline.stages.maps import FitMapConfig
     from navbench.pipeline.tracking import track_sequence
     from navbench.track.sequence import render_walk
-    from navbench.worldmodel.fit import fit_map
+    from navbench.worldmodel.fitviews import fit_views
     from navbench.worldmodel.tum import export_views, import_views
 
     root = Path.cwd()
@@ -73,7 +72,7 @@ def main() -> int:
     fit_cfg = FitMapConfig(args.steps, prof.fit_seed, dict(prof.fit)).fit_config()
     t0 = time.perf_counter()
     views = import_views(seq)
-    vmap, metrics = fit_map(views, fit_cfg)
+    vmap, metrics = fit_views(views, fit_cfg)
     api_map = work / f"{seq.name}-api-map.npz"
     vmap.save(api_map)
     fit_s = time.perf_counter() - t0
@@ -89,14 +88,13 @@ def main() -> int:
     # CLI path
     code, out, err = cli("fit-map", "--views", seq, "--steps", args.steps, "--profile", args.profile,
                          "--json", cwd=root)
-    if code == 0:
-        fit = json.loads(out)
-        map_ref, note = fit["map_key"], f"CLI fit-map --views: map {fit['map_key'][:12]}"
-    else:
-        map_ref = api_map
-        note = ("CLI fit-map --views unavailable here (" + (err.strip().splitlines() or ["?"])[-1][:120]
-                + "): the CLI tracks on the API's map")
-    print(note)
+    if code != 0:
+        print(f"CLI fit-map --views failed: {err.strip()}")
+        return 1
+    fit = json.loads(out)
+    map_ref = fit["map_key"]
+    print(f"CLI fit-map --views: map {map_ref[:12]}, depth MAE {fit['depth_mae_m']:.6f} m, RGB L1 "
+          f"{fit['rgb_l1']:.6f} (API: {metrics['depth_mae_m']:.6f} m, {metrics['rgb_l1']:.6f})")
     code, out, err = cli("track-sequence", seq, "--map", map_ref, "--odometry", args.odometry,
                          "--seed", args.seed, "--json", "--no-store",
                          "--out", work / f"{seq.name}-ours.txt", cwd=root)
@@ -107,8 +105,10 @@ def main() -> int:
     print(f"CLI: ours ATE {got['ate_m']:.6f} m, RPE {got['rpe_m']:.5f} m / {got['rpe_deg']:.3f} deg "
           f"per frame, {got['ms_per_frame']:.1f} ms per frame; estimate {got['out']}")
     diff = abs(got["ate_m"] - api.ate_m)
-    ok_same, ok_cm = diff <= 1e-6, api.ate_m <= 0.01
-    print(f"|CLI - API| ATE = {diff:.2e} m ({'<=' if ok_same else '>'} 1e-6); ours ATE "
+    qdiff = max(abs(fit["depth_mae_m"] - metrics["depth_mae_m"]), abs(fit["rgb_l1"] - metrics["rgb_l1"]))
+    ok_same, ok_cm = diff <= 1e-6 and qdiff <= 1e-6, api.ate_m <= 0.01
+    print(f"|CLI - API| map quality = {qdiff:.2e}, ATE = {diff:.2e} m ({'<=' if ok_same else '>'} "
+          f"1e-6); ours ATE "
           f"{api.ate_m * 100:.3f} cm ({'<=' if ok_cm else '>'} 1 cm with {args.odometry})")
     return 0 if ok_same and ok_cm else 1
 

@@ -166,11 +166,8 @@ class GridRelocalizer:
 
 
 def _build_localizer(vmap, intrinsics: Intrinsics, camera_height: float, align: Callable):
-    try:
-        from navbench.localize import Localizer
-    except ImportError:
-        raise TrackingError("relocalizer 'localize': navbench.localize is not part of this build; "
-                            "use the option relocalizer_name=grid") from None
+    from navbench.localize import Localizer
+
     return Localizer.build(vmap, intrinsics, camera_height)
 
 
@@ -186,15 +183,9 @@ RELOCALIZERS: dict[str, Callable] = {"localize": _build_localizer, "grid": _buil
 
 def check_relocalizer(name: str) -> None:
     """Raise :class:`TrackingError` now (before any tracking) when ``name`` is not a known
-    relocaliser or ``localize`` is missing from this build."""
-    import importlib.util
-
+    relocaliser."""
     if name not in RELOCALIZERS:
         raise TrackingError(f"unknown relocalizer {name!r}; choose one of {sorted(RELOCALIZERS)}")
-    if name == "localize" and RELOCALIZERS[name] is _build_localizer \
-            and importlib.util.find_spec("navbench.localize") is None:
-        raise TrackingError("relocalizer 'localize': navbench.localize is not part of this build; "
-                            "use the option relocalizer_name=grid")
 
 
 def build_relocalizer(name: str, vmap, intrinsics: Intrinsics, camera_height: float,

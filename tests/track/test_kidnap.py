@@ -270,3 +270,24 @@ def test_relocalizers_are_built_once_per_map_and_swappable(monkeypatch):
     assert a is b and len(built) == 1
     with pytest.raises(Exception, match="unknown relocalizer"):
         relocalize.build_relocalizer("nope", Map(), HALF_CAMERA, 0.5, None)
+
+
+def test_recovery_through_the_real_localiser(level, cameras):
+    """The default relocaliser, ``navbench.localize.Localizer`` (option ``relocalizer_name``
+    ``localize``), built from the world model ``ours`` tracks against, brings a kidnapped
+    estimate back within the tolerance (the same walk as the grid relocaliser's test)."""
+    from navbench.track.registry import make_estimator
+    from tests.localize.worlds import ExactWorld
+
+    cam = cameras[0]
+    poses, controls = _walk(level, kidnap_at=6)
+    ours = make_estimator("ours", vmap=ExactWorld(level), intrinsics=HALF_CAMERA, recover=True,
+                          relocalizer_name="localize")
+    est, alarms = _track(ours, cam, poses, controls)
+    r = recovery(poses, est, np.isin(np.arange(len(poses)), [6]), alarms)
+    from navbench.localize import Localizer
+
+    assert isinstance(ours._relocalizer, Localizer)
+    assert r["detected"][0] and r["steps"][0] <= 1
+    err = np.hypot(*(est[8:, :2] - poses[8:, :2]).T)
+    assert err.max() < 0.05
