@@ -83,6 +83,9 @@ def format_breakdown(rows: list[dict]) -> str:
         if not part:
             continue
         total = sum(r["seconds"] for r in part)
+        if kind != "stage" and total == 0 and not any(r["count"] for r in part):
+            lines.append(f"{title}s: none (no episode ran in this run)")
+            continue
         lines.append(f"{title:<20} {'seconds':>10} {'share':>7} {'count':>8}  notes")
         for r in part:
             share = 100.0 * r["seconds"] / total if total > 0 else 0.0

@@ -153,6 +153,7 @@ def test_tampered_trajectory_is_simulated_again(tmp_path, monkeypatch, reference
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("ray")  # never beside the other Ray test: two clusters at once collide
 def test_ray_executor_matches_local(tmp_path, monkeypatch, reference):
     pytest.importorskip("ray", reason="ray is not installed (optional extra navbench[ray])")
     from navbench.cli.main import app

@@ -14,6 +14,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("ray")  # never beside the other Ray test: two clusters at once collide
 def test_two_ray_nodes_store_the_local_executors_rows():
     pytest.importorskip("ray", reason="ray is not installed (optional extra navbench[ray])")
     res = subprocess.run([sys.executable, str(ROOT / "scripts" / "ray_two_nodes.py")], cwd=ROOT,

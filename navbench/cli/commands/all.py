@@ -9,6 +9,7 @@ import typer
 from navbench.cli._common import console
 from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, profile_default, profile_help
 from navbench.cli.commands._pipeline_ui import command_line
+from navbench.pipeline.artifacts import PAIRED_FILE  # light
 from navbench.pipeline.profiles import MAX_WORKERS  # light
 
 
@@ -36,6 +37,21 @@ def _print_scores(path: Path) -> None:
                 cells.append(v)
         t.add_row(*cells)
     console.print(t)
+
+
+def _print_claim(path: Path) -> None:
+    """The paired differences the score stage stored (``ours`` minus each ablation), if any."""
+    import pandas as pd
+    from rich.markup import escape
+
+    from navbench.cli.commands.score import _paired_table
+
+    try:
+        paired = pd.read_csv(path)
+    except (FileNotFoundError, pd.errors.EmptyDataError):
+        return
+    if not paired.empty:
+        console.print(_paired_table(paired, escape))
 
 
 def register(app: typer.Typer) -> None:
@@ -67,6 +83,7 @@ def register(app: typer.Typer) -> None:
                                                     address=address, progress=ui, report_dir=report_dir,
                                                     command=command_line(), ref_name="all"))
         _print_scores(result.score.path)
+        _print_claim(result.score.path.parent / PAIRED_FILE)
         from navbench.pipeline.breakdown import format_breakdown
 
         console.print(f"where the time went (run {result.run_id}; stored in the database's run_timings):",

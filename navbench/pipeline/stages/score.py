@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from navbench.config import config_hash
-from navbench.pipeline.artifacts import SCORE_FILE
+from navbench.pipeline.artifacts import PAIRED_FILE, SCORE_FILE
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.grid import Cell
 
@@ -19,15 +19,18 @@ def episodes_state_key(ctx: StageContext, cells: list[Cell]) -> str:
 def score_stage(ctx: StageContext, cells: list[Cell]) -> Ref:
     """The score table of exactly these cells (:func:`navbench.pipeline.score.select_episodes`
     restricted to the cells' keys, then :func:`~navbench.pipeline.score.summarise`), cached by
-    the set of stored episodes; the artifact is ``score.csv``."""
+    the set of stored episodes; the artifact is ``score.csv`` and, beside it,
+    ``paired_differences.csv`` (:func:`~navbench.pipeline.score.paired_differences`: the paper's
+    claim, ``ours`` minus each ablation on the same tasks and seeds)."""
     state = episodes_state_key(ctx, cells)
     levels = sorted({c.level for c in cells})
 
     def compute(d: Path) -> None:
-        from navbench.pipeline.score import select_episodes, summarise
+        from navbench.pipeline.score import paired_differences, select_episodes, summarise
 
         frame = select_episodes(ctx.db, level=levels, cell_keys=cell_keys)
         summarise(frame).to_csv(d / SCORE_FILE, index=False)
+        paired_differences(frame).to_csv(d / PAIRED_FILE, index=False)
 
     cell_keys = sorted(c.key for c in cells)
     path, key, cached = ctx.run("score", {"levels": levels}, {"episodes": state}, compute)
