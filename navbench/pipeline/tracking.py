@@ -22,7 +22,8 @@ from navbench.pipeline.stages.sequence import (
 
 def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | None = None, *,
                    out: str | Path | None = None, db: Any = None, store: Any = None,
-                   command: str = "track_sequence()", **overrides) -> SequenceResult:
+                   command: str = "track_sequence()", reading: Any = None,
+                   **overrides) -> SequenceResult:
     """Track the TUM sequence in ``directory`` (the Python front door of ``track-sequence``).
 
     ``map``: a world model, a map file, a map artifact directory or a cache key (``None`` for
@@ -31,7 +32,9 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
     Writes the estimate as a strict TUM file to ``out`` (``None``: no file; ``"default"``:
     :func:`default_output`); with ``db`` (a :class:`~navbench.pipeline.db.ResultsDB`) records a
     run and stores one ``sequence_tracking`` row. ``store``: the artifact store cache keys are
-    looked up in (default ``results/cache``).
+    looked up in (default ``results/cache``). ``reading``: an
+    :class:`~navbench.pipeline.stages.imported.ImportOptions` when the directory's intrinsics,
+    camera height or depth scale are given rather than read from its ``intrinsics.json``.
     """
     import dataclasses
 
@@ -56,7 +59,8 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
             model, map_key = resolve_map(store, str(map))
         else:
             model, map_key = map, map.content_hash()
-    seq = read_sequence(directory, cfg.max_tilt_deg, cfg.max_dt)
+    seq = read_sequence(directory, cfg.max_tilt_deg, cfg.max_dt,
+                        read_views=reading.read if reading is not None else None)
 
     def work() -> SequenceResult:
         res = run_tracking(seq, model, map_key, cfg, str(directory))

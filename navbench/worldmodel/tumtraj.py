@@ -102,7 +102,8 @@ class Sequence:
         return len(self.views)
 
 
-def read_sequence(directory, max_tilt_deg: float = MAX_TILT_DEG, max_dt: float = 0.02) -> Sequence:
+def read_sequence(directory, max_tilt_deg: float = MAX_TILT_DEG, max_dt: float = 0.02,
+                  read_views=None) -> Sequence:
     """Read a TUM RGB-D directory for tracking: :func:`~navbench.worldmodel.tum.import_views`
     reads and checks the frames (associated within ``max_dt`` s) and refuses a ground-truth pose
     tilted more than ``max_tilt_deg`` (the error names its line), with the fit's tolerances."""
@@ -111,7 +112,8 @@ def read_sequence(directory, max_tilt_deg: float = MAX_TILT_DEG, max_dt: float =
     d = Path(directory)
     if not d.is_dir():
         raise ArtifactError(f"{d}: no such directory" if not d.exists() else f"{d}: not a directory")
-    views = import_views(d, max_dt=max_dt, max_tilt_deg=max_tilt_deg)
+    views = (read_views(d) if read_views is not None
+             else import_views(d, max_dt=max_dt, max_tilt_deg=max_tilt_deg))
     times = np.asarray(views.meta.get("timestamps", []), dtype=np.float64)
     rgb_txt = d / "rgb.txt"
     raw = {k: line.split()[0] for k, line in enumerate(rgb_txt.read_text().splitlines(), 1)

@@ -113,3 +113,25 @@ def test_map_by_cache_key_equals_the_file(scene, tmp_path, monkeypatch):
     a, b = json.loads(by_key.out), json.loads(by_file.out)
     assert a["map_key"] == key and a["ate_m"] == b["ate_m"]
     assert (tmp_path / "a.txt").read_text() == (tmp_path / "b.txt").read_text()
+
+
+def test_intrinsics_on_the_command_line_replace_intrinsics_json(scene, tmp_path, monkeypatch):
+    """A TUM directory as the benchmark ships it (no navbench intrinsics.json): --fx/--fy/--cx/
+    --cy/--camera-height give the camera, and the tracking equals the one reading the json."""
+    import json
+    import shutil
+
+    root, seq, views = scene
+    monkeypatch.chdir(tmp_path)
+    bare = tmp_path / "bare"
+    shutil.copytree(seq, bare)
+    meta = json.loads((bare / "intrinsics.json").read_text())
+    (bare / "intrinsics.json").unlink()
+    args = ("--map", root / "map.npz", "--seed", "2", "--json", "--no-store", "--out", "e.txt")
+    res = nb("track-sequence", bare, *args)
+    assert res.code == 2 and "intrinsics.json" in res.err and "Traceback" not in res.err
+    res = nb("track-sequence", bare, *args, "--fx", meta["fx"], "--fy", meta["fy"], "--cx",
+             meta["cx"], "--cy", meta["cy"], "--camera-height", meta["camera_height"])
+    assert res.code == 0, res.output
+    ref = nb("track-sequence", seq, *args)
+    assert json.loads(res.out)["ate_m"] == json.loads(ref.out)["ate_m"]

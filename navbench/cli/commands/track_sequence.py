@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from navbench.cli import _tum
 from navbench.cli._common import console, print_json
 from navbench.cli._help import DB_HELP, default
 
@@ -30,8 +31,10 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", min=0, help="Odometry noise and pixel-sampling seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option KEY=VALUE "
                                          "(repeatable), e.g. -o optimizer=adam."),
-        max_tilt: float = typer.Option(0.5, "--max-tilt", min=0.0, max=180.0, help="Largest camera tilt from "
-                                       "planar (deg) accepted in the ground truth and odometry."),
+        fx: float = _tum.FX, fy: float = _tum.FY, cx: float = _tum.CX, cy: float = _tum.CY,
+        camera_height: float = _tum.CAMERA_HEIGHT, depth_scale: float = _tum.DEPTH_SCALE,
+        max_dt: float = _tum.MAX_DT, max_tilt: float = _tum.MAX_TILT,
+        max_height_dev: float = _tum.MAX_HEIGHT,
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
         db: str = typer.Option(None, "--db", help=DB_HELP),
         no_store: bool = typer.Option(False, "--no-store", help="Do not store the row in the "
@@ -50,11 +53,14 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.stages.sequence import TrackSequenceConfig
         from navbench.pipeline.tracking import track_sequence
 
+        reading = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
+                                      max_height_dev)
         cfg = TrackSequenceConfig(estimator=estimator, odometry=odometry, seed=seed,
-                                  options=_parse_options(option), max_tilt_deg=max_tilt)
+                                  options=_parse_options(option), max_tilt_deg=max_tilt,
+                                  max_dt=max_dt)
         with (nullcontext() if no_store else open_db(db)) as rdb:
             res = track_sequence(directory, map_, cfg, out=out if out is not None else "default",
-                                 db=rdb, command=command_line())
+                                 db=rdb, command=command_line(), reading=reading)
         summary = {**res.summary(), "out": str(res.out), "stored": res.stored}
         if json_out:
             print_json(summary)
