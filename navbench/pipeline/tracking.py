@@ -15,9 +15,10 @@ from navbench.pipeline.stages.sequence import (
     TrackSequenceConfig,
     default_output,
     parse_odometry,
-    resolve_map,
     run_tracking,
 )
+from navbench.pipeline.stages.context import StageContext
+from navbench.pipeline.stages.maps import resolve_map
 
 
 def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | None = None, *,
@@ -56,7 +57,7 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
                 from navbench.pipeline.cache import ArtifactStore
 
                 store = ArtifactStore("results/cache")
-            model, map_key = resolve_map(store, str(map))
+            model, map_key = resolve_map(str(map), StageContext(store))
         else:
             model, map_key = map, map.content_hash()
     seq = read_sequence(directory, cfg.max_tilt_deg, cfg.max_dt,

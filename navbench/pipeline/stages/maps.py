@@ -151,7 +151,7 @@ def resolve_map(spec: str, ctx: StageContext | None = None, what: str = "--map")
     """The world model ``spec`` names and its key: ``(model, key)``.
 
     ``spec`` is a map file (any registered world-model kind,
-    :func:`navbench.worldmodel.base.load_world_model`) or the key (>= 6 hex digits) of a cached
+    :func:`navbench.worldmodel.base.load_world_model`), a map artifact's directory, or the key (>= 6 hex digits) of a cached
     fit-map or true-map artifact in ``ctx``'s store (default ``results/cache``). The key is the
     model's :meth:`~navbench.worldmodel.base.WorldModel.content_hash` either way (as
     :func:`map_file_stage` keys a brought map). Failures are one line naming ``what``."""
@@ -176,6 +176,14 @@ def resolve_map(spec: str, ctx: StageContext | None = None, what: str = "--map")
             except ArtifactError as e:
                 if "ambiguous" in str(e):
                     raise ArtifactError(f"{what} {spec}: {e}") from None
+        if not hits:
+            try:  # a key of another stage's artifact: say which
+                other, _ = ctx.store.find(spec)
+            except ArtifactError:
+                other = None
+            if other is not None:
+                raise ConfigError(f"{what} {spec}: that key is a {other} artifact, not a map "
+                                  f"({' or '.join(MAP_STAGES)})")
         if len(hits) != 1:
             raise ArtifactError(f"{what} {spec}: " + ("no such map file, and no fit-map or true-map "
                                 f"artifact with that key in {ctx.store.root}" if not hits else
@@ -183,7 +191,10 @@ def resolve_map(spec: str, ctx: StageContext | None = None, what: str = "--map")
         stage, key = hits[0]
         path = ctx.store.load(stage, key) / MAP_FILE
         ctx.used.append((stage, key))
-    elif not path.is_file():
-        raise ConfigError(f"{what} {spec}: not a map file (a directory)")
+    elif path.is_dir():  # a map artifact's directory
+        if not (path / MAP_FILE).is_file():
+            raise ConfigError(f"{what} {spec}: a directory without a {MAP_FILE}; give a map file "
+                              f"or a fit-map cache key")
+        path = path / MAP_FILE
     model = load_world_model(path)
     return model, model.content_hash()

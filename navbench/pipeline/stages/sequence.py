@@ -34,15 +34,12 @@ from typing import Any
 import numpy as np
 
 from navbench.errors import ConfigError
-from navbench.pipeline.artifacts import MAP_FILE
 from navbench.worldmodel.tum import MAX_TILT_DEG
 
 #: Estimators ``track-sequence`` accepts (``gt`` needs the truth at run time: nothing to test).
 SEQUENCE_ESTIMATORS = ("ours", "no-map", "dynamics", "emission")
 #: Second entry of the odometry noise generator's seed (the first is the config's seed).
 ODOMETRY_STREAM = 0x0D0
-#: Stages whose artifacts hold a map (``map.npz``) a cache key may name.
-MAP_STAGES = ("fit-map", "true-map")
 
 
 @dataclass(frozen=True)
@@ -93,30 +90,6 @@ def sequence_odometry(seq, cfg: TrackSequenceConfig) -> tuple[np.ndarray, str]:
     path = Path(value)
     poses = read_odometry(path, seq.times, cfg.max_dt, cfg.max_tilt_deg)
     return relative_increments(poses), hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def resolve_map(store, spec: str | None, what: str = "--map") -> tuple[Any, str]:
-    """``(world model, key)`` of ``spec``: a map file (any kind :func:`load_world_model` reads;
-    key: its content hash), a map artifact's directory, or a cache key (>= 6 hex digits) of a
-    ``fit-map`` / ``true-map`` artifact (key: the artifact's). Anything else is one error."""
-    from navbench.worldmodel.base import load_world_model
-
-    p = Path(spec)
-    if p.is_dir():
-        if not (p / MAP_FILE).is_file():
-            raise ConfigError(f"{what}: {p} is a directory without a {MAP_FILE}; give a map file "
-                              f"or a fit-map cache key")
-        p = p / MAP_FILE
-    if p.is_file():
-        model = load_world_model(p)
-        return model, model.content_hash()
-    if re.fullmatch(r"[0-9a-fA-F]{6,64}", spec):
-        stage, key = store.find(spec.lower())
-        if stage not in MAP_STAGES:
-            raise ConfigError(f"{what} {spec}: that key is a {stage} artifact, not a map "
-                              f"({' or '.join(MAP_STAGES)})")
-        return load_world_model(store.load(stage, key) / MAP_FILE), key
-    raise ConfigError(f"{what}: no such map file or cache key {spec!r}")
 
 
 def check_map_covers(model, poses, what: str) -> None:
