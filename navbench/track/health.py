@@ -20,7 +20,7 @@ Projections that leave the reference image are not evidence either; with fewer t
 
 The tracker raises an alarm when the fraction falls below ``health_min_inliers``
 (:class:`navbench.track.eq7.TrackerConfig`); the threshold was calibrated on normal tracking of
-``house-1`` only (see docs/pending/i14-kidnap.md). Pure numpy: arrays in, a float out.
+``house-1`` only (see README, "Localisation and the kidnapped robot"). Pure numpy: arrays in, a float out.
 """
 
 from __future__ import annotations
