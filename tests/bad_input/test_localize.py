@@ -39,3 +39,12 @@ def test_bad_localizer_options(project):
     assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "nope=1"), "nope")
     assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins=abc"), "bins")
     assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins"), "--option")
+
+
+def test_a_typod_level_is_an_error_not_a_generated_level(project, tmp_path):
+    """Neither localize-eval nor track-eval generates a level it has no file or seed for."""
+    for cmd in (("localize-eval", "tyop", "--map", "true", "--queries", "2"),
+                ("track-eval", "tyop", "--map", "true", "--trajectories", "1", "--steps", "2")):
+        res = nb(*cmd)
+        assert_clean_error(res, "tyop", "make-level")
+        assert not (project / "levels" / "tyop.json").exists()

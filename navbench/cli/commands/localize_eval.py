@@ -62,7 +62,7 @@ def register(app: typer.Typer) -> None:
         def body(ui):
             with (nullcontext() if no_store else open_db(db)) as rdb:
                 ctx = stage_context(ui, rdb)
-                level_ref = study_level(ctx, level, prof.level_seed if prof else 1)
+                level_ref = study_level(ctx, level, prof)
                 vmap = study_map(ctx, map_, level_ref, prof)
                 config = {"level": level_ref.key, "map": vmap.key, "localize": cfg}
                 record = nullcontext() if rdb is None else recorded_run(

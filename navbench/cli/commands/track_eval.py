@@ -125,7 +125,7 @@ def register(app: typer.Typer) -> None:
         def study(ui, rdb):
             """Run (or fetch) the study; with a database, as a recorded run that stores its rows."""
             ctx = stage_context(ui, rdb)
-            level_ref = study_level(ctx, level, prof.level_seed if prof and level in prof.levels else None)
+            level_ref = study_level(ctx, level, prof)
             vmap = study_map(ctx, map_, level_ref, prof, needs_map)
             config = {"level": level_ref.key, "map": vmap.key, "study": cfg}
             record = nullcontext() if rdb is None else recorded_run(

@@ -43,9 +43,11 @@ class StudyMap:
     load: Callable[[], Any] | None = None
 
 
-def study_level(ctx: StageContext, level: str, level_seed: int | None = None) -> Ref:
-    """The make-level reference of ``level``: a level name (``levels/NAME.json``, or a benchmark
-    level generated and cached) or a path to a level file named after its level."""
+def study_level(ctx: StageContext, level: str, profile: Any = None) -> Ref:
+    """The make-level reference of ``level``: a level name (``levels/NAME.json``, a benchmark
+    level generated and cached, or one of ``profile``'s levels generated from its seed,
+    :meth:`LevelConfig.for_profile`) or a path to a level file named after its level. Any
+    other name is an error, never a silently generated level."""
     p = Path(level)
     if p.suffix == ".json" or p.is_file():
         if not p.is_file():
@@ -53,8 +55,9 @@ def study_level(ctx: StageContext, level: str, level_seed: int | None = None) ->
 
             raise LevelError(f"{p}: no such level file")
         ctx = dataclasses.replace(ctx, levels_dir=p.parent)  # same store, db and used list
-        return make_level_stage(ctx, LevelConfig(p.stem, level_seed))
-    return make_level_stage(ctx, LevelConfig(level, level_seed))
+        return make_level_stage(ctx, LevelConfig(p.stem))
+    return make_level_stage(ctx, LevelConfig.for_profile(level, profile) if profile is not None
+                            else LevelConfig(level))
 
 
 def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
