@@ -157,17 +157,25 @@ class ArtifactStore:
         self.verify(stage, key)
         return d
 
-    def find(self, key_prefix: str, stage: str | None = None) -> tuple[str, str]:
-        """Resolve a (possibly abbreviated, >= 6 hex digits) key to ``(stage, full key)``."""
+    def find(self, key_prefix: str, stage: str | tuple[str, ...] | None = None) -> tuple[str, str]:
+        """Resolve a (possibly abbreviated, >= 6 hex digits) key to ``(stage, full key)`` among
+        the artifacts of ``stage`` (a name, a tuple of names, or ``None``: any stage). A key
+        that names only another stage's artifact says which stage that is."""
         if len(key_prefix) < 6:
             raise ArtifactError(f"key {key_prefix!r} is too short (give at least 6 hex digits)")
-        hits = [(a.stage, a.key) for a in self._iter_dirs()
-                if a.key.startswith(key_prefix) and (stage is None or a.stage == stage)]
+        stages = (stage,) if isinstance(stage, str) else stage
+        every = [(a.stage, a.key) for a in self._iter_dirs() if a.key.startswith(key_prefix)]
+        hits = [h for h in every if stages is None or h[0] in stages]
         if not hits:
-            where = f"{stage} " if stage else ""
-            raise ArtifactError(f"no {where}artifact with key {key_prefix!r} in {self.root}")
+            where = f"{' or '.join(stages)} " if stages else ""
+            others = sorted({s for s, _ in every})
+            if others:
+                raise ArtifactError(f"key {key_prefix!r} names a {' or '.join(others)} artifact, "
+                                    f"not one of {', '.join(stages)}")
+            raise ArtifactError(f"no {where}artifact with that key ({key_prefix!r}) in {self.root}")
         if len(hits) > 1:
-            raise ArtifactError(f"key {key_prefix!r} is ambiguous ({len(hits)} artifacts)")
+            raise ArtifactError(f"key {key_prefix!r} is ambiguous ({len(hits)} artifacts); give "
+                                f"more digits")
         return hits[0]
 
     # ------------------------------------------------------------------ writing

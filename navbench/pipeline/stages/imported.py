@@ -111,19 +111,10 @@ def resolve_views(spec: str, ctx: StageContext | None = None, options: ImportOpt
 
 
 def _find_views_key(ctx: StageContext, spec: str, what: str) -> tuple[str, str]:
-    hits = []
-    for stage in VIEWS_STAGES:
-        try:
-            hits.append(ctx.store.find(spec, stage))
-        except ArtifactError as e:
-            if "ambiguous" in str(e):
-                raise ArtifactError(f"{what} {spec}: {e}") from None
-    if not hits:
-        raise ArtifactError(f"{what} {spec}: no such file or directory, and no import-views or "
-                            f"collect-views artifact with that key in {ctx.store.root}")
-    if len(hits) > 1:
-        raise ArtifactError(f"{what} {spec}: key is ambiguous ({len(hits)} artifacts); give more digits")
-    return hits[0]
+    try:
+        return ctx.store.find(spec, VIEWS_STAGES)
+    except ArtifactError as e:
+        raise ArtifactError(f"{what} {spec}: no such file or directory, and {e}") from None
 
 
 def store_views_stage(ctx: StageContext, views, content_key: str | None = None) -> Ref:

@@ -169,26 +169,10 @@ def resolve_map(spec: str, ctx: StageContext | None = None, what: str = "--map")
             from navbench.pipeline.cache import ArtifactStore
 
             ctx = StageContext(ArtifactStore("results/cache"))
-        hits = []
-        for stage in MAP_STAGES:
-            try:
-                hits.append(ctx.store.find(spec, stage))
-            except ArtifactError as e:
-                if "ambiguous" in str(e):
-                    raise ArtifactError(f"{what} {spec}: {e}") from None
-        if not hits:
-            try:  # a key of another stage's artifact: say which
-                other, _ = ctx.store.find(spec)
-            except ArtifactError:
-                other = None
-            if other is not None:
-                raise ConfigError(f"{what} {spec}: that key is a {other} artifact, not a map "
-                                  f"({' or '.join(MAP_STAGES)})")
-        if len(hits) != 1:
-            raise ArtifactError(f"{what} {spec}: " + ("no such map file, and no fit-map or true-map "
-                                f"artifact with that key in {ctx.store.root}" if not hits else
-                                f"key is ambiguous ({len(hits)} artifacts); give more digits"))
-        stage, key = hits[0]
+        try:
+            stage, key = ctx.store.find(spec, MAP_STAGES)
+        except ArtifactError as e:
+            raise ArtifactError(f"{what} {spec}: not a map file, nor a map key: {e}") from None
         path = ctx.store.load(stage, key) / MAP_FILE
         ctx.used.append((stage, key))
     elif path.is_dir():  # a map artifact's directory
