@@ -161,6 +161,17 @@ def _f(occ, ux, uy, uz, nx, ny, nz):
 
 
 @nb.njit(cache=True, inline="always")
+def _no_hit(depth, valid, rgb, r, c):
+    """Pixel ``(r, c)`` sees nothing (no crossing, or the camera is inside occupied space):
+    infinite depth, invalid, black."""
+    depth[r, c] = np.inf
+    valid[r, c] = False
+    rgb[r, c, 0] = 0.0
+    rgb[r, c, 1] = 0.0
+    rgb[r, c, 2] = 0.0
+
+
+@nb.njit(cache=True, inline="always")
 def _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
                   nx, ny, nz, depth, rgb, valid):
     """Render pixel ``(r, c)`` into ``depth``, ``rgb``, ``valid`` (one ray of :func:`_render_kernel`;
@@ -205,20 +216,12 @@ def _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r
             break
         m += 1
     if hit == 0:
-        depth[r, c] = np.inf
-        valid[r, c] = False
-        rgb[r, c, 0] = 0.0
-        rgb[r, c, 1] = 0.0
-        rgb[r, c, 2] = 0.0
+        _no_hit(depth, valid, rgb, r, c)
         return
     mm = hit - 1
     fm = _f(occ, u_c[0] + mm * dx, u_c[1] + mm * dy, u_c[2] + mm * dz, nx, ny, nz)
     if fm > tau:  # only possible for mm == 0: the camera is inside occupied space
-        depth[r, c] = np.inf
-        valid[r, c] = False
-        rgb[r, c, 0] = 0.0
-        rgb[r, c, 1] = 0.0
-        rgb[r, c, 2] = 0.0
+        _no_hit(depth, valid, rgb, r, c)
         return
     alpha = (tau - fm) / (fp - fm)
     ms = mm + alpha  # k* / step
