@@ -36,33 +36,23 @@ N_BOOT = 2000
 LEVEL = 0.95
 
 
-# ------------------------------------------------------------- intervals (replace by score's)
+# ------------------------------------------- intervals (navbench.nav.metrics, as score's)
 
 def success_ci(successes: int, n: int, level: float = LEVEL) -> tuple[float, float]:
     """Clopper-Pearson (exact binomial) interval of a success rate."""
-    from scipy.stats import binomtest
+    from navbench.nav.metrics import clopper_pearson
 
-    if n == 0:
-        return float("nan"), float("nan")
-    ci = binomtest(int(successes), int(n)).proportion_ci(confidence_level=level, method="exact")
-    return float(ci.low), float(ci.high)
+    return clopper_pearson(successes, n, level)
 
 
 def mean_ci(values, strata, n_boot: int = N_BOOT, seed: int = 0, level: float = LEVEL) -> tuple[float, float]:
-    """Percentile bootstrap interval of the mean of ``values``, resampling within each stratum
-    (level) so every resample keeps each level's episode count."""
+    """Bootstrap interval (BCa) of the mean of ``values``, resampling within each stratum (level)
+    so every resample keeps each level's episode count: ``score``'s own interval."""
+    from navbench.nav.metrics import stratified_bootstrap_ci
+
     v = np.asarray(values, dtype=np.float64)
     s = np.asarray(strata)
-    if v.size == 0:
-        return float("nan"), float("nan")
-    rng = np.random.default_rng(seed)
-    sums = np.zeros(n_boot)
-    for k in np.unique(s):
-        g = v[s == k]
-        sums += g[rng.integers(0, len(g), size=(n_boot, len(g)))].sum(axis=1)
-    means = sums / v.size
-    a = (1 - level) / 2
-    return float(np.quantile(means, a)), float(np.quantile(means, 1 - a))
+    return stratified_bootstrap_ci([v[s == k] for k in np.unique(s)], level, n_boot, seed)
 
 
 def paired_ci(a, b, strata, n_boot: int = N_BOOT, seed: int = 0) -> tuple[float, float, float]:
