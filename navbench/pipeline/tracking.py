@@ -52,12 +52,8 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
     parse_odometry(cfg.odometry)
     model, map_key = None, None
     if map is not None and uses_map(cfg.estimator):
-        if isinstance(map, (str, Path)):
-            if store is None:
-                from navbench.pipeline.cache import ArtifactStore
-
-                store = ArtifactStore("results/cache")
-            model, map_key = resolve_map(str(map), StageContext(store))
+        if isinstance(map, (str, Path)):  # resolve_map's own default store: results/cache
+            model, map_key = resolve_map(str(map), StageContext(store) if store is not None else None)
         else:
             model, map_key = map, map.content_hash()
     seq = read_sequence(directory, cfg.max_tilt_deg, cfg.max_dt,
