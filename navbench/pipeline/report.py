@@ -34,9 +34,11 @@ from navbench.pipeline.score import (
     ESTIMATOR_ORDER,
     NOISE_ORDER,
     _order_key,
+    conditions_in,
     estimator_variants,
     mixed_setups_warning,
     select_episodes,
+    short_conditions,
     spl_matrix,
     summarise,
 )
@@ -226,23 +228,32 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     warning = mixed_setups_warning(table)
     if warning:
         page.note("Warning: " + warning.replace("--run", "`navbench report --run`") + ".")
-    m = spl_matrix(table, "all")
-    page.table(m, "spl_table", "SPL pooled over all levels, [95% BCa bootstrap interval stratified "
-               "by level]", index=True)
+    found = conditions_in(table) or [None]
+    page.p(conditions_sentence(found))
+    for i, conds in enumerate(found):
+        t = table if conds is None else table[table["conditions"] == conds]
+        under = "" if conds is None else f", conditions: {conds}"
+        page.table(spl_matrix(t, "all"), "spl_table" + (f"_{i + 1}" if i else ""),
+                   f"SPL pooled over all levels, [95% BCa bootstrap interval stratified by level]{under}",
+                   index=True)
     paper = pd.DataFrame(
         [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
         index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
     page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
-    page.figure(lambda fig: plot_spl(fig.add_subplot(), table, "all"),
-                "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
-                "interval; black ticks: the paper's values", (8, 4.2))
+    for conds in found:
+        t = table if conds is None else table[table["conditions"] == conds]
+        under = "" if conds is None else f"; conditions: {conds}"
+        page.figure(lambda fig, t=t: plot_spl(fig.add_subplot(), t, "all"),
+                    "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
+                    f"interval; black ticks: the paper's values{under}", (8, 4.2))
     page.h2("Scores per level", "scores")
     page.p("Every stored episode counts once per (setup, task, seed); success rate and SPL are "
            "means, RMSEs and step times medians over episodes. 95% intervals: success rate exact "
            "binomial (Clopper-Pearson); SPL a BCa bootstrap stratified by level (each resample "
            "keeps every level's episode count); medians a percentile bootstrap.")
     page.table(table, "scores", "Scores per level, estimator and noise (level 'all': pooled); "
-               "value [95% interval]", digits=3, display=_compact_scores(table))
+               f"value [95% interval]; {conditions_sentence(found, short=True)}", digits=3,
+               display=_compact_scores(table, several=len(found) > 1))
     idle = sorted(set(table.loc[~table["tracking_work"].astype(bool), "estimator"])) \
         if "tracking_work" in table.columns else []
     if idle:
@@ -250,8 +261,24 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
                   "(the step is the simulator and controller alone; scores.csv has its median).")
 
 
-def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
-    """The score table with each metric and its interval in one ``"v [lo, hi]"`` cell."""
+def conditions_sentence(found: list, short: bool = False) -> str:
+    """What a report section says about the simulator conditions of its episodes (``found``:
+    :func:`~navbench.pipeline.score.conditions_in`; ``[None]`` when not known)."""
+    found = [c for c in found if c is not None]
+    if not found:
+        return "Simulator conditions: not recorded with these episodes."
+    if len(found) == 1:
+        return f"Simulator conditions of every episode: {found[0]}" + ("" if short else (
+            " (navbench.sim.conditions; the paper's ViZDoom pose quantisation, its 5° "
+            "movement-direction limit against the believed or the true heading, and its "
+            "collision check)."))
+    return (f"These episodes ran under {len(found)} sets of simulator conditions, never pooled "
+            "into one row: " + " | ".join(found) + ".")
+
+
+def _compact_scores(table: "pandas.DataFrame", several: bool = False) -> "pandas.DataFrame":
+    """The score table with each metric and its interval in one ``"v [lo, hi]"`` cell (and the
+    conditions that differ from the defaults when ``several`` sets are shown)."""
     import pandas as pd
 
     def fmt(r, m, d):
@@ -263,6 +290,7 @@ def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
     rows = []
     for _, r in table.iterrows():
         rows.append({"level": r["level"], "estimator": r["estimator"], "noise": r["noise"],
+                     **({"conditions": short_conditions(r["conditions"])} if several else {}),
                      "episodes": r["episodes"], "success rate": fmt(r, "success_rate", 2),
                      "SPL": fmt(r, "spl", 2), "loc RMSE (m)": fmt(r, "loc_rmse_m", 3),
                      "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2),

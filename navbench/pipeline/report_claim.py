@@ -19,8 +19,10 @@ from navbench.pipeline.score import (
     NO_WORK_MS,
     NOISE_ORDER,
     _order_key,
+    conditions_in,
     estimator_variants,
     paired_differences,
+    short_conditions,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -28,7 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 #: Columns of the per-episode CSV (``episodes.csv``), in this order (those present).
 EPISODE_CSV_COLUMNS = (
-    "level", "estimator", "estimator_options", "noise", "task_id", "seed", "success", "spl_term",
+    "level", "estimator", "estimator_options", "noise", "conditions", "task_id", "seed", "success", "spl_term",
     "path_length", "optimal_length", "steps", "end_reason", "collided", "loc_rmse_m",
     "rot_rmse_deg", "sim_ms", "render_ms", "estimate_ms", "plan_ms", "control_ms", "step_ms",
     "run_id", "map_key", "task_set_key", "cell_key", "condition_key", "traj_key",
@@ -95,41 +97,57 @@ def section_claim(page: Any, episodes: "pandas.DataFrame", n_boot: int, seed: in
            "bootstrap resampling pairs within each level (stratified by level). Episodes without "
            "a partner are left out and counted. The paper's margins are its Fig. 5a averages "
            "(not paired).")
-    for noise, t in claim_tables(paired).items():
-        page.table(t, f"claim_{noise}", f"Noise {noise}: ours − ablation on the same (task, seed)")
+    found = conditions_in(paired) or [None]
+    for i, conds in enumerate(found):
+        p = paired if conds is None else paired[paired["conditions"] == conds]
+        under = "" if conds is None else f"; conditions: {conds}"
+        for noise, t in claim_tables(p).items():
+            page.table(t, f"claim_{noise}" + (f"_{i + 1}" if i else ""),
+                       f"Noise {noise}: ours − ablation on the same (task, seed){under}")
     paired.to_csv(page.out_dir / "paired_differences.csv", index=False, float_format="%.6g")
     page.csvs.append("paired_differences.csv")
     page.sections.append('<p class="meta">Every level, noise and comparison with full precision: '
                          '<a href="paired_differences.csv">paired_differences.csv</a>.</p>')
-    pooled = paired[paired["level"] == "all"]
-    page.figure(lambda fig: plot_paired_differences(fig.add_subplot(), pooled, paper_difference),
-                "SPL difference ours − ablation pooled over levels, with its 95 % interval "
-                "(paired, stratified bootstrap); black ticks: the paper's margin", (8, 3.6))
+    for conds in found:
+        pooled = paired[(paired["level"] == "all")
+                        & ((paired["conditions"] == conds) if conds is not None else True)]
+        under = "" if conds is None else f"; conditions: {conds}"
+        page.figure(lambda fig, pooled=pooled: plot_paired_differences(fig.add_subplot(), pooled,
+                                                                       paper_difference),
+                    "SPL difference ours − ablation pooled over levels, with its 95 % interval "
+                    f"(paired, stratified bootstrap); black ticks: the paper's margin{under}", (8, 3.6))
 
 
 def end_reason_counts(episodes: "pandas.DataFrame") -> "pandas.DataFrame":
-    """Episodes by end reason per (estimator, noise): columns ``episodes``, one per end reason
-    (``reached``, ``step-limit``, ``stuck``, ``no-plan``, then any other), ``collided`` (the
-    episodes whose agent hit a wall or furniture) and ``failed`` (not a success)."""
+    """Episodes by end reason per (estimator, noise, conditions): columns ``episodes``, one per
+    end reason (``reached``, ``step-limit``, ``stuck``, ``no-plan``, then any other),
+    ``collided`` (the episodes whose agent hit a wall or furniture) and ``failed`` (not a
+    success). ``conditions`` (the short label, :func:`~navbench.pipeline.score.short_conditions`)
+    appears only when the episodes ran under more than one set of conditions."""
     import pandas as pd
 
     if episodes.empty:
         return pd.DataFrame()
-    f = episodes.assign(variant=estimator_variants(episodes),
+    conds = (episodes["conditions"].astype(str) if "conditions" in episodes.columns
+             else episodes["level"].map(lambda _: ""))
+    f = episodes.assign(variant=estimator_variants(episodes), conditions=conds,
                         end_reason=episodes["end_reason"].fillna("unknown"))
+    several = f["conditions"].nunique() > 1
     known = ["reached", "step-limit", "stuck", "no-plan"]
     reasons = known + sorted(set(f["end_reason"]) - set(known))
     rows = []
-    for (est, noise), g in f.groupby(["variant", "noise"], sort=False):
-        row = {"estimator": est, "noise": noise, "episodes": len(g)}
+    for (est, noise, c), g in f.groupby(["variant", "noise", "conditions"], sort=False):
+        row = {"estimator": est, "noise": noise, **({"conditions": short_conditions(c)} if several else {}),
+               "episodes": len(g)}
         for r in reasons:
             row[r] = int((g["end_reason"] == r).sum())
         row["collided"] = int(g["collided"].fillna(False).astype(bool).sum())
         row["failed"] = int((~g["success"].astype(bool)).sum())
         rows.append(row)
     t = pd.DataFrame(rows)
-    key = [(_order_key(n, NOISE_ORDER), _order_key(e.split("{")[0], ESTIMATOR_ORDER), e)
-           for e, n in zip(t["estimator"], t["noise"])]
+    cs = t["conditions"] if "conditions" in t.columns else [""] * len(t)
+    key = [(c, _order_key(n, NOISE_ORDER), _order_key(e.split("{")[0], ESTIMATOR_ORDER), e)
+           for e, n, c in zip(t["estimator"], t["noise"], cs)]
     return t.iloc[sorted(range(len(t)), key=lambda i: key[i])].reset_index(drop=True)
 
 
@@ -143,8 +161,10 @@ def section_failures(page: Any, episodes: "pandas.DataFrame") -> None:
            "true position, within 2 L of the target), stuck (a collision: movement is prohibited "
            "from then on), step-limit (500 steps), no-plan (A* found no path on the map). "
            "collided counts the episodes that hit a wall or furniture.")
+    found = conditions_in(episodes)
+    under = f"; conditions: {found[0]}" if len(found) == 1 else ""
     page.table(end_reason_counts(episodes), "end_reasons",
-               "Episodes by end reason, per estimator and noise (all levels)")
+               f"Episodes by end reason, per estimator and noise (all levels){under}")
     cols = [c for c in EPISODE_CSV_COLUMNS if c in episodes.columns]
     e = episodes[cols].copy()
     if "estimator_options" in e.columns:
@@ -265,7 +285,8 @@ def draw_fig3(fig, level, tasks, panels: dict, planning_slice=None) -> None:
                 plans.append(tr["plan"])
         plot_level_runs(ax, level, tasks, trajs, colours=colours, plans=plans,
                         planning_slice=planning_slice, legend=False)
-        ax.set_title(f"{level.name}, {noise} noise")
+        ax.set_title(f"{level.name}, {noise}" if "noise" in str(noise) else f"{level.name}, {noise} noise",
+                     fontsize=10)
         for (v, _), c in zip(runs, colours):
             variants.setdefault(v, c)
     handles = [Line2D([], [], color=c, linewidth=1.6, label=v) for v, c in variants.items()]
@@ -300,6 +321,7 @@ def level_runs_figure(page: Any, name: str, level, tasks, eps: "pandas.DataFrame
         order = sorted(range(len(chosen)), key=lambda i: (
             _order_key(chosen["noise"].iloc[i], NOISE_ORDER), int(chosen["task_id"].iloc[i]),
             _order_key(chosen["estimator"].iloc[i], ESTIMATOR_ORDER)))
+        several = "conditions" in chosen.columns and chosen["conditions"].nunique() > 1
         for _, e in chosen.iloc[order].iterrows():
             try:
                 tr = dict(load_trajectory(e["traj_key"]))
@@ -307,7 +329,9 @@ def level_runs_figure(page: Any, name: str, level, tasks, eps: "pandas.DataFrame
                 failed_loads += 1
                 continue
             tr["failed"] = not bool(e["success"])
-            panels.setdefault(str(e["noise"]), []).append((e["variant"], tr))
+            panel = (f"{e['noise']} noise, {short_conditions(e['conditions'])}" if several
+                     else str(e["noise"]))  # one panel per noise and conditions
+            panels.setdefault(panel, []).append((e["variant"], tr))
     if failed_loads:
         page.note(f"Level {name}: {failed_loads} trajectory artifact(s) unavailable")
     planning_slice, slice_note = None, ""
@@ -325,5 +349,7 @@ def level_runs_figure(page: Any, name: str, level, tasks, eps: "pandas.DataFrame
                 f"{name}: top view, {ntasks} tasks (dots: starts, crosses: targets); tasks "
                 f"{', '.join(map(str, shown)) or 'none'} by every estimator at each noise level "
                 f"(the tasks with the most failures first; seed {int(chosen['seed'].min()) if len(chosen) else 0}); "
-                "magenta: the learned map's band slice the planner reads" + slice_note,
+                "magenta: the learned map's band slice the planner reads" + slice_note
+                + (f"; conditions: {eps['conditions'].iloc[0]}"
+                   if "conditions" in eps.columns and eps["conditions"].nunique() == 1 else ""),
                 (6.0 * len(panels), 6.2))

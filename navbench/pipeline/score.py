@@ -158,7 +158,48 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
         frame = with_identities(frame, db.tasks_frame())
         frame = (frame.drop_duplicates(["setup", "task_uid", "seed"], keep="first")
                  .reset_index(drop=True))
+        frame = with_conditions(frame, db.runs_frame())
     return frame
+
+
+#: The ``conditions`` label of episodes whose run recorded no episode config.
+UNRECORDED_CONDITIONS = "unrecorded"
+
+
+def conditions_label(episode_overrides: "dict | None") -> str:
+    """The simulator conditions (:mod:`navbench.sim.conditions`) an episode config selects, every
+    one named: ``"pose_quantisation=off, direction_limit=believed, collision_check=swept"``
+    (the defaults). ``episode_overrides``: EpisodeConfig field overrides as a run records them
+    (``config["episode"]``); ``None`` (not recorded) gives :data:`UNRECORDED_CONDITIONS`."""
+    from navbench.sim.conditions import episode_conditions
+
+    if not isinstance(episode_overrides, dict):
+        return UNRECORDED_CONDITIONS
+    return ", ".join(f"{k}={v}" for k, v in episode_conditions(episode_overrides).items())
+
+
+def with_conditions(frame: "pandas.DataFrame", runs: "pandas.DataFrame") -> "pandas.DataFrame":
+    """``frame`` (episodes) with a ``conditions`` column: :func:`conditions_label` of the episode
+    config of the run that stored each episode (``runs``: :meth:`ResultsDB.runs_frame`). A run
+    stores only its own grid's cells, so its config's episode settings are the episode's; the
+    ``condition_key`` (a hash) also covers them but cannot be read back. Scoring groups and
+    pairs by this label too, so episodes of different conditions never share a row."""
+    configs = dict(zip(runs["id"], runs["config"])) if not runs.empty else {}
+    labels = {rid: conditions_label(cfg.get("episode") if isinstance(cfg, dict) else None)
+              for rid, cfg in configs.items()}
+    return frame.assign(conditions=[labels.get(int(r), UNRECORDED_CONDITIONS) for r in frame["run_id"]])
+
+
+def _conditions_of(frame: "pandas.DataFrame") -> "pandas.Series":
+    """The ``conditions`` column, or :data:`UNRECORDED_CONDITIONS` for a frame without one."""
+    if "conditions" in frame.columns:
+        return frame["conditions"].fillna(UNRECORDED_CONDITIONS).astype(str)
+    return frame["level"].map(lambda _: UNRECORDED_CONDITIONS).astype(object)
+
+
+def _conditions_order(label: str) -> tuple[int, str]:
+    """Sort key: the defaults first, unrecorded last, others by name."""
+    return (0 if label == conditions_label({}) else 2 if label == UNRECORDED_CONDITIONS else 1, label)
 
 
 def with_identities(frame: "pandas.DataFrame", tasks: "pandas.DataFrame | None" = None) -> "pandas.DataFrame":
@@ -224,28 +265,33 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
 
     ``pooled`` adds ``level = "all"`` rows over every level. Columns: level, estimator, noise,
     episodes, then for each metric ``m``: ``m``, ``m_ci_low``, ``m_ci_high``; and ``step_hz``
-    with its interval. Rows sorted by level ("all" last), noise, estimator.
+    with its interval. ``conditions``: the simulator conditions of the row's episodes
+    (:func:`with_conditions`; a frame without the column is :data:`UNRECORDED_CONDITIONS`): rows
+    are per (level, estimator, noise, conditions), so episodes run under different conditions
+    never pool into one row. Rows sorted by level ("all" last), conditions (the defaults first),
+    noise, estimator.
     """
     import pandas as pd
 
     columns = ["level", "estimator", "noise", "episodes", "setups"]
     for name, _, _ in METRICS:
         columns += [name, f"{name}_ci_low", f"{name}_ci_high"]
-    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high", "tracking_work"]
+    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high", "tracking_work", "conditions"]
     if frame.empty:
         return pd.DataFrame(columns=columns)
     f = frame.copy()
     f["variant"] = estimator_variants(f)
     f["success"] = f["success"].astype(float)
+    f["conditions"] = _conditions_of(f)
     groups = [(lvl, g) for lvl, g in f.groupby("level", sort=True)]
     if pooled:
         groups.append(("all", f))
     out = []
     for lvl, g in groups:
-        for (est, noise), cell in g.groupby(["variant", "noise"], sort=False):
+        for (est, noise, conds), cell in g.groupby(["variant", "noise", "conditions"], sort=False):
             setup_col = "setup" if "setup" in cell.columns else "cell_key"
             setups = int(cell.groupby("level")[setup_col].nunique().max())
-            row: dict[str, Any] = {"level": lvl, "estimator": est, "noise": noise,
+            row: dict[str, Any] = {"level": lvl, "estimator": est, "noise": noise, "conditions": conds,
                                    "episodes": int(len(cell)), "setups": setups}
             for name, col, stat in METRICS:
                 vals = cell[col].to_numpy(dtype=float)
@@ -268,7 +314,7 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
                 row["step_hz"] = row["step_hz_ci_low"] = row["step_hz_ci_high"] = float("nan")
             out.append(row)
     table = pd.DataFrame(out, columns=columns)
-    key = table.apply(lambda r: (r["level"] == "all", r["level"],
+    key = table.apply(lambda r: (r["level"] == "all", r["level"], _conditions_order(r["conditions"]),
                                  _order_key(r["noise"], NOISE_ORDER),
                                  _order_key(r["estimator"].split("{")[0], ESTIMATOR_ORDER),
                                  r["estimator"]), axis=1)
@@ -322,12 +368,17 @@ def _selected(db: "ResultsDB", run, level) -> "pandas.DataFrame":
     return frame
 
 
-def spl_matrix(table: "pandas.DataFrame", level: str = "all", digits: int = 2) -> "pandas.DataFrame":
+def spl_matrix(table: "pandas.DataFrame", level: str = "all", digits: int = 2,
+               conditions: str | None = None) -> "pandas.DataFrame":
     """The paper's Fig. 5a layout: rows noise (high, mid, low...), columns estimators, cells
-    ``"0.92 [0.89, 0.95]"`` (SPL with its 95 % interval) for one ``level`` of a score table."""
+    ``"0.92 [0.89, 0.95]"`` (SPL with its 95 % interval) for one ``level`` of a score table and,
+    when given, one ``conditions`` label (a table of several conditions needs one matrix each:
+    :func:`conditions_in`)."""
     import pandas as pd
 
     t = table[table["level"] == level]
+    if conditions is not None and "conditions" in t.columns:
+        t = t[t["conditions"] == conditions]
     noises = sorted(t["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER), reverse=True)
     ests = sorted(t["estimator"].unique(),
                   key=lambda e: (_order_key(e.split("{")[0], ESTIMATOR_ORDER), e))
@@ -337,6 +388,25 @@ def spl_matrix(table: "pandas.DataFrame", level: str = "all", digits: int = 2) -
             f"{r['spl']:.{digits}f} [{r['spl_ci_low']:.{digits}f}, {r['spl_ci_high']:.{digits}f}]")
     data = [[cells.get((n, e), "") for e in ests] for n in noises]
     return pd.DataFrame(data, index=pd.Index(noises, name="noise"), columns=ests)
+
+
+def conditions_in(table: "pandas.DataFrame") -> list[str]:
+    """The distinct ``conditions`` labels of a score or paired table, the defaults first."""
+    if table is None or table.empty or "conditions" not in table.columns:
+        return []
+    return sorted(set(table["conditions"].astype(str)), key=_conditions_order)
+
+
+def short_conditions(label: str) -> str:
+    """A :func:`conditions_label` with the conditions at their defaults left out
+    (``"direction_limit=true"``; ``"defaults"`` when none differs): a narrow table column."""
+    from navbench.sim.conditions import CONDITIONS
+
+    if label == UNRECORDED_CONDITIONS:
+        return label
+    parts = [p for p in str(label).split(", ")
+             if p.partition("=")[0] not in CONDITIONS or p.partition("=")[2] != CONDITIONS[p.partition("=")[0]].default]
+    return ", ".join(parts) or "defaults"
 
 
 def table_records(table: "pandas.DataFrame") -> list[dict]:
@@ -359,7 +429,8 @@ CLAIM_REFERENCE = "ours"
 CLAIM_OTHERS = ("no-map", "dynamics")
 PAIRED_COLUMNS = ["level", "noise", "comparison", "reference", "other", "pairs", "unpaired_reference",
                   "unpaired_other", "reference_spl", "other_spl", "spl_diff", "spl_diff_ci_low",
-                  "spl_diff_ci_high", "success_diff", "success_diff_ci_low", "success_diff_ci_high"]
+                  "spl_diff_ci_high", "success_diff", "success_diff_ci_low", "success_diff_ci_high",
+                  "conditions"]
 
 
 def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFERENCE,
@@ -375,7 +446,8 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
     BCa bootstrap interval that resamples pairs within each level
     (:func:`~navbench.nav.metrics.stratified_bootstrap_ci`); ``success_diff`` likewise with the
     success flags. Episodes without a partner are left out and counted (``unpaired_reference``,
-    ``unpaired_other``). ``reference`` and ``others`` are estimator names; each variant
+    ``unpaired_other``). Rows are per ``conditions`` too (:func:`with_conditions`), and only
+    episodes of equal conditions pair. ``reference`` and ``others`` are estimator names; each variant
     (``name{options}``) of them is compared. Rows: levels sorted, then ``"all"``; noise in
     :data:`NOISE_ORDER`; one row per comparison present (columns :data:`PAIRED_COLUMNS`).
     """
@@ -384,12 +456,13 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
     if frame.empty:
         return pd.DataFrame(columns=PAIRED_COLUMNS)
     f = frame if "pair_condition" in frame.columns else with_identities(frame)
-    f = f.assign(variant=estimator_variants(f), success=f["success"].astype(float))
+    f = f.assign(variant=estimator_variants(f), success=f["success"].astype(float),
+                 conditions=_conditions_of(f))
     base = f["variant"].map(lambda v: v.split("{")[0])
     refs = sorted(f.loc[base == reference, "variant"].unique())
     oths = sorted(f.loc[base.isin(others), "variant"].unique(),
                   key=lambda v: (_order_key(v.split("{")[0], ESTIMATOR_ORDER), v))
-    keys = ["pair_condition", "task_uid", "seed"]
+    keys = ["pair_condition", "conditions", "task_uid", "seed"]
     cols = keys + ["level", "noise", "spl_term", "success"]
     out = []
     for ref in refs:
@@ -409,9 +482,9 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
             if pooled:
                 groups.append(("all", m))
             for lvl, g in groups:
-                for noise, c in g.groupby("noise", sort=False):
+                for (noise, conds), c in g.groupby(["noise", "conditions"], sort=False):
                     both = c[c["_merge"] == "both"]
-                    row = {"level": lvl, "noise": noise, "comparison": f"{ref} - {oth}",
+                    row = {"level": lvl, "noise": noise, "conditions": conds, "comparison": f"{ref} - {oth}",
                            "reference": ref, "other": oth, "pairs": int(len(both)),
                            "unpaired_reference": int((c["_merge"] == "left_only").sum()),
                            "unpaired_other": int((c["_merge"] == "right_only").sum())}
@@ -429,7 +502,8 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
     table = pd.DataFrame(out, columns=PAIRED_COLUMNS)
     if table.empty:
         return table
-    key = [((r.level == "all"), r.level, _order_key(r.noise, NOISE_ORDER), r.reference,
+    key = [((r.level == "all"), r.level, _conditions_order(r.conditions), _order_key(r.noise, NOISE_ORDER),
+            r.reference,
             _order_key(r.other.split("{")[0], ESTIMATOR_ORDER), r.other) for r in table.itertuples()]
     order = sorted(range(len(table)), key=lambda i: key[i])
     return table.iloc[order].reset_index(drop=True)

@@ -19,20 +19,30 @@ def _print_scores(path: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
+    import pandas as pd
+
+    from navbench.cli.commands.score import conditions_caption
+    from navbench.pipeline.score import conditions_in, short_conditions
+
     rows = list(csv.DictReader(open(path)))
-    t = Table(title="scores (95% bootstrap intervals in the report)")
-    cols = [("level", "level"), ("estimator", "estimator"), ("noise", "noise"), ("episodes", "n"),
+    frame = pd.DataFrame(rows)
+    several = len(conditions_in(frame)) > 1
+    t = Table(title="scores (95% bootstrap intervals in the report)", caption=escape(conditions_caption(frame)))
+    cols = [("level", "level"), ("estimator", "estimator"), ("noise", "noise"),
+            *((("conditions", "conditions"),) if several else ()), ("episodes", "n"),
             ("success_rate", "success"), ("spl", "SPL"), ("loc_rmse_m", "loc RMSE m"),
             ("rot_rmse_deg", "rot RMSE deg"), ("step_hz", "Hz")]
     digits = {"step_hz": 1}
+    text = ("level", "estimator", "noise", "conditions", "episodes")
     for _, title in cols:
-        t.add_column(title, justify="left" if title in ("level", "estimator", "noise") else "right")
+        t.add_column(title, justify="left" if title in text[:4] else "right")
     for r in rows:
         cells = []
         for key, _ in cols:
-            v = escape(r.get(key) or "")
+            v = r.get(key) or ""
+            v = escape(short_conditions(v) if key == "conditions" else v)
             try:
-                cells.append(v if key in ("level", "estimator", "noise", "episodes") else f"{float(v):.{digits.get(key, 3)}f}")
+                cells.append(v if key in text else f"{float(v):.{digits.get(key, 3)}f}")
             except ValueError:
                 cells.append(v)
         t.add_row(*cells)
@@ -63,6 +73,10 @@ def register(app: typer.Typer) -> None:
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
         address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray)."),
         report_dir: Path = typer.Option(Path("results/report"), "--report", help="Where the report is published."),
+        condition: list[str] = typer.Option(None, "--condition", metavar="NAME=VALUE", help="A simulator "
+                                            "condition of the paper, repeatable: pose_quantisation=off|round|"
+                                            "truncate, direction_limit=believed|true, collision_check=swept|"
+                                            "endpoint (overrides the profile's \\[conditions] table)."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                                help=DB_HELP),
     ):
@@ -78,6 +92,13 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import run_with_ui
         from navbench.pipeline.run import run_profile
 
+        if condition:  # checked before any work, as run-navigation's
+            from navbench.pipeline.profiles import load_profile, override
+            from navbench.sim.conditions import conditions_to_episode, parse_condition_args
+
+            prof = load_profile(profile)
+            chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
+            profile = override(prof, episode={**prof.episode, **chosen})
         t0 = time.perf_counter()
         result = run_with_ui(lambda ui: run_profile(profile, db=db, executor=executor, workers=workers,
                                                     address=address, progress=ui, report_dir=report_dir,

@@ -49,7 +49,8 @@ def score(
 
     from navbench.pipeline.db import ResultsDB
     from navbench.cli._common import err_console
-    from navbench.pipeline.score import mixed_setups_warning, score_tables, table_records
+    from navbench.pipeline.score import (conditions_in, mixed_setups_warning, score_tables, short_conditions,
+                                         table_records)
 
     with ResultsDB(db, create=False) as rdb:
         table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
@@ -68,8 +69,11 @@ def score(
 
     # level, estimator and noise names come from the database: printed literally, never as markup
     out = Table(title=f"navbench score ({escape(run)}): mean or median [95% interval: success exact "
-                      "binomial, SPL bootstrap stratified by level, medians bootstrap]")
-    for col, just in (("level", "left"), ("estimator", "left"), ("noise", "left"), ("n", "right"),
+                      "binomial, SPL bootstrap stratified by level, medians bootstrap]",
+                caption=escape(conditions_caption(table)))
+    several = len(conditions_in(table)) > 1
+    for col, just in (("level", "left"), ("estimator", "left"), ("noise", "left"),
+                      *((("conditions", "left"),) if several else ()), ("n", "right"),
                       ("success", "right"), ("SPL", "right"), ("loc RMSE m", "right"),
                       ("rot RMSE deg", "right"), ("step ms", "right"), ("Hz", "right")):
         out.add_column(col, justify=just)
@@ -81,6 +85,7 @@ def score(
         hz = "-" if r["step_hz"] != r["step_hz"] else f"{r['step_hz']:.1f}"
         idle = not bool(r.get("tracking_work", True))  # dynamics, gt: no tracking rate to show
         out.add_row(escape(str(r["level"])), escape(str(r["estimator"])), escape(str(r["noise"])),
+                    *((escape(short_conditions(r["conditions"])),) if several else ()),
                     str(r["episodes"]),
                     _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
                     _fmt(r["spl"], r["spl_ci_low"], r["spl_ci_high"], 2),
@@ -92,25 +97,48 @@ def score(
         console.print(_paired_table(paired, escape))
 
 
+def conditions_caption(table) -> str:
+    """The line under a table that states its simulator conditions (every one named)."""
+    from navbench.pipeline.score import conditions_in
+
+    found = conditions_in(table)
+    if len(found) == 1:
+        return f"conditions: {found[0]}"
+    return ("rows of different simulator conditions, never pooled (conditions column: those not "
+            "at their default): " + " | ".join(found)) if found else ""
+
+
 def _paired_table(paired, escape):
-    """The paper's claim: reference - other on the same tasks and seeds, one section per noise."""
+    """The paper's claim: reference - other on the same tasks and seeds, one section per noise
+    (and per conditions, when the table holds several)."""
     from rich.table import Table
 
-    from navbench.pipeline.score import NOISE_ORDER, _order_key
+    from navbench.pipeline.score import NOISE_ORDER, _order_key, conditions_in, short_conditions
 
     out = Table(title="paired differences on the same (task, seed): mean [95% bootstrap interval, "
-                      "stratified by level]")
-    for col, just in (("noise", "left"), ("level", "left"), ("comparison", "left"), ("pairs", "right"),
+                      "stratified by level]", caption=escape(conditions_caption(paired)))
+    found = conditions_in(paired) or [None]
+    several = len(found) > 1
+    for col, just in (("noise", "left"), *((("conditions", "left"),) if several else ()),
+                      ("level", "left"), ("comparison", "left"), ("pairs", "right"),
                       ("unpaired", "right"), ("SPL ref / other", "right"), ("SPL diff", "right"),
                       ("success diff", "right")):
         out.add_column(col, justify=just)
     noises = sorted(paired["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER))
-    for i, noise in enumerate(noises):
-        if i:
+    sections = [(n, c) for c in found for n in noises]
+    first = True
+    for noise, conds in sections:
+        rows = paired[(paired["noise"] == noise)
+                      & ((paired["conditions"] == conds) if conds is not None else True)]
+        if rows.empty:
+            continue
+        if not first:
             out.add_section()
-        for _, r in paired[paired["noise"] == noise].iterrows():
+        first = False
+        for _, r in rows.iterrows():
             both = f"{r['reference_spl']:.2f} / {r['other_spl']:.2f}" if r["pairs"] else "-"
-            out.add_row(escape(str(noise)), escape(str(r["level"])), escape(str(r["comparison"])),
+            out.add_row(escape(str(noise)), *((escape(short_conditions(conds)),) if several else ()),
+                        escape(str(r["level"])), escape(str(r["comparison"])),
                         str(r["pairs"]), f"{r['unpaired_reference']} / {r['unpaired_other']}", both,
                         _fmt(r["spl_diff"], r["spl_diff_ci_low"], r["spl_diff_ci_high"], 3),
                         _fmt(r["success_diff"], r["success_diff_ci_low"], r["success_diff_ci_high"], 3))

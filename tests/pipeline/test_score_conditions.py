@@ -1,0 +1,156 @@
+"""Every score table states the simulator conditions its episodes ran under, and episodes of
+different conditions never pool into one row or pair with each other (issue 16)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from navbench.pipeline.db import ResultsDB
+from navbench.pipeline.score import (
+    UNRECORDED_CONDITIONS,
+    conditions_in,
+    conditions_label,
+    score_tables,
+    short_conditions,
+    spl_matrix,
+)
+
+from .test_db import episode
+
+DEFAULTS = "pose_quantisation=off, direction_limit=believed, collision_check=swept"
+PAPER = "pose_quantisation=round, direction_limit=true, collision_check=endpoint"
+PAPER_EPISODE = {"pose_quantisation": "round", "body_fixed_drive": True, "collision_check": "endpoint"}
+
+
+def test_labels_name_every_condition():
+    assert conditions_label({}) == DEFAULTS
+    assert conditions_label({"max_steps": 300}) == DEFAULTS  # not a condition
+    assert conditions_label(PAPER_EPISODE) == PAPER
+    assert conditions_label({"body_fixed_drive": True}) == (
+        "pose_quantisation=off, direction_limit=true, collision_check=swept")
+    assert conditions_label(None) == UNRECORDED_CONDITIONS
+    assert short_conditions(DEFAULTS) == "defaults"
+    assert short_conditions(PAPER) == PAPER
+    assert short_conditions("pose_quantisation=off, direction_limit=true, collision_check=swept") == \
+        "direction_limit=true"
+    assert short_conditions(UNRECORDED_CONDITIONS) == UNRECORDED_CONDITIONS
+
+
+@pytest.fixture
+def two_conditions(tmp_path):
+    """One level, ``ours`` and ``dynamics`` at low noise on tasks 0..2, once under the defaults
+    (run 1) and once under the paper's conditions (run 2), with hand-chosen SPL terms. The two
+    runs' rows share level, map, noise, task set, tasks and seeds; only the conditions (and so
+    the condition and cell keys) differ."""
+    d = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    r1 = d.start_run("six", "navbench all", {"episode": {}}, "a")
+    d.add_episodes(r1, [episode("d-ours", t, spl_term=s, condition_key="cond-default")
+                        for t, s in enumerate((0.9, 0.8, 0.7))]
+                   + [episode("d-dyn", t, estimator="dynamics", spl_term=s, condition_key="cond-default",
+                              success=s > 0) for t, s in enumerate((0.6, 0.0, 0.3))])
+    r2 = d.start_run("six", "navbench all --condition ...", {"episode": PAPER_EPISODE}, "b")
+    d.add_episodes(r2, [episode("p-ours", t, spl_term=s, condition_key="cond-paper")
+                        for t, s in enumerate((0.95, 0.85, 0.75))]
+                   + [episode("p-dyn", t, estimator="dynamics", spl_term=s, condition_key="cond-paper",
+                              success=s > 0) for t, s in enumerate((0.1, 0.0, 0.2))])
+    yield d
+    d.close()
+
+
+def _one(frame, **eq):
+    sel = frame
+    for k, v in eq.items():
+        sel = sel[sel[k] == v]
+    assert len(sel) == 1, sel
+    return sel.iloc[0]
+
+
+def test_different_conditions_are_separate_rows_and_never_pair(two_conditions):
+    table, paired = score_tables(two_conditions, n_boot=200)
+    assert conditions_in(table) == [DEFAULTS, PAPER] and conditions_in(paired) == [DEFAULTS, PAPER]
+    for level in ("l1", "all"):
+        a = _one(table, level=level, estimator="ours", conditions=DEFAULTS)
+        b = _one(table, level=level, estimator="ours", conditions=PAPER)
+        assert a["episodes"] == b["episodes"] == 3 and a["setups"] == b["setups"] == 1
+        assert a["spl"] == pytest.approx(0.8) and b["spl"] == pytest.approx(0.85)
+        assert _one(table, level=level, estimator="dynamics", conditions=DEFAULTS)["spl"] == pytest.approx(0.3)
+        assert _one(table, level=level, estimator="dynamics", conditions=PAPER)["spl"] == pytest.approx(0.1)
+        assert _one(table, level=level, estimator="dynamics", conditions=PAPER)["success_rate"] == \
+            pytest.approx(2 / 3)
+    assert len(table) == 8  # (l1, all) x (ours, dynamics) x two conditions
+    # pairs only within one set of conditions: ours - dynamics = mean of the per-task differences
+    pa = _one(paired, level="all", conditions=DEFAULTS)
+    pb = _one(paired, level="all", conditions=PAPER)
+    assert pa["pairs"] == pb["pairs"] == 3
+    assert pa["unpaired_reference"] == pa["unpaired_other"] == 0
+    assert pa["spl_diff"] == pytest.approx(((0.9 - 0.6) + (0.8 - 0.0) + (0.7 - 0.3)) / 3)
+    assert pb["spl_diff"] == pytest.approx(((0.95 - 0.1) + (0.85 - 0.0) + (0.75 - 0.2)) / 3)
+    # the Fig. 5a matrix of one conditions set holds that set's value only
+    m = spl_matrix(table, "all", conditions=PAPER)
+    assert m.loc["low", "ours"].startswith("0.85 [")
+
+
+def test_rows_without_condition_keys_still_split_by_their_runs_conditions(two_conditions, tmp_path):
+    """Rows stored before condition keys existed pair by level, map and noise; the conditions
+    their runs recorded still keep them apart."""
+    d = ResultsDB(f"sqlite:///{tmp_path / 'legacy.db'}")
+    r1 = d.start_run("six", "a", {"episode": {}}, "a")
+    d.add_episodes(r1, [episode("o1", 0, spl_term=0.9), episode("y1", 0, estimator="dynamics", spl_term=0.5)])
+    r2 = d.start_run("six", "b", {"episode": {"body_fixed_drive": True}}, "b")
+    d.add_episodes(r2, [episode("o2", 0, spl_term=0.8), episode("y2", 0, estimator="dynamics", spl_term=0.0)])
+    table, paired = score_tables(d, n_boot=50)
+    d.close()
+    assert set(table["episodes"]) == {1} and len(table) == 8
+    diffs = {r.conditions: r.spl_diff for r in paired[paired["level"] == "all"].itertuples()}
+    assert diffs == {DEFAULTS: pytest.approx(0.4),
+                     "pose_quantisation=off, direction_limit=true, collision_check=swept": pytest.approx(0.8)}
+
+
+def test_a_run_without_a_recorded_episode_config_is_labelled_unrecorded(tmp_path):
+    d = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    rid = d.start_run("x", "y", {}, "a")
+    d.add_episodes(rid, [episode("c", 0)])
+    table, _ = score_tables(d, n_boot=20)
+    d.close()
+    assert set(table["conditions"]) == {UNRECORDED_CONDITIONS}
+
+
+def test_score_cli_states_the_conditions(two_conditions, tmp_path):
+    from navbench.cli.main import app
+
+    url = two_conditions.url
+    runner = CliRunner()
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--format", "json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert {d["conditions"] for d in doc["scores"]} == {DEFAULTS, PAPER}
+    assert {d["conditions"] for d in doc["paired_differences"]} == {DEFAULTS, PAPER}
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--format", "csv"])
+    header = res.stdout.splitlines()[0].split(",")
+    assert "conditions" in header and len(res.stdout.strip().splitlines()) == 9
+    wide = {"COLUMNS": "250"}
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50"], env=wide)
+    assert res.exit_code == 0 and "never pooled" in res.stdout and PAPER in res.stdout
+    assert "defaults" in res.stdout  # the conditions column of the default rows
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--run", "1"], env=wide)
+    assert res.exit_code == 0 and f"conditions: {DEFAULTS}" in res.stdout
+    assert "never pooled" not in res.stdout
+
+
+def test_all_prints_the_conditions_of_its_score_csv(two_conditions, tmp_path, capsys):
+    """`navbench all`'s tables come from the score stage's CSV files: they carry the conditions."""
+    from navbench.cli._common import console
+    from navbench.cli.commands.all import _print_claim, _print_scores
+    from navbench.pipeline.score import paired_differences, select_episodes, summarise
+
+    frame = select_episodes(two_conditions, run=2)
+    summarise(frame, n_boot=20).to_csv(tmp_path / "score.csv", index=False)
+    paired_differences(frame, n_boot=20).to_csv(tmp_path / "paired.csv", index=False)
+    with console.capture() as cap:
+        _print_scores(tmp_path / "score.csv")
+        _print_claim(tmp_path / "paired.csv")
+    out = " ".join(cap.get().split())  # captions wrap at the table's width
+    assert out.count(f"conditions: {PAPER}") == 2  # under each of the two tables
