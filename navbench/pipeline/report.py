@@ -268,8 +268,8 @@ def conditions_sentence(found: list, short: bool = False) -> str:
     if not found:
         return "Simulator conditions: not recorded with these episodes."
     if len(found) == 1:
-        return f"Simulator conditions of every episode: {found[0]}" + ("" if short else (
-            " (navbench.sim.conditions; the paper's ViZDoom pose quantisation, its 5° "
+        return f"{'s' if short else 'S'}imulator conditions of every episode: {found[0]}" + ("" if short else (
+            " (navbench.sim.conditions: the paper's ViZDoom pose quantisation, its 5° "
             "movement-direction limit against the believed or the true heading, and its "
             "collision check)."))
     return (f"These episodes ran under {len(found)} sets of simulator conditions, never pooled "
@@ -299,7 +299,7 @@ def _compact_scores(table: "pandas.DataFrame", several: bool = False) -> "pandas
     return pd.DataFrame(rows)
 
 
-def _section_tracking(page: _Page, episodes, tracking, bench=None) -> None:
+def _section_tracking(page: _Page, episodes, tracking, bench=None, runs=None) -> None:
     import pandas as pd
 
     from navbench.pipeline.plots import plot_loc_cdf, plot_rot_cdf, plot_step_runtime
@@ -346,7 +346,7 @@ def _section_tracking(page: _Page, episodes, tracking, bench=None) -> None:
                   "optimisation); their step is the simulator and controller alone, left out of "
                   "the figure, and no rate is given.")
     page.table(rt, "runtime", "Median per-step milliseconds by component", index=True, digits=4)
-    section_speed_vs_paper(page, episodes, bench)
+    section_speed_vs_paper(page, episodes, bench, runs)
 
 
 def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
@@ -485,7 +485,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)
     section_failures(page, episodes)
-    _section_tracking(page, episodes, tracking, db.bench_frame())
+    _section_tracking(page, episodes, tracking, db.bench_frame(), runs)
     _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level,
                     load_map)
     _section_maps(page, db.maps_frame(), load_map)

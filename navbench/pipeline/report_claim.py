@@ -234,13 +234,46 @@ def speed_vs_paper(episodes: "pandas.DataFrame", bench: "pandas.DataFrame") -> "
                                        "paper (GPU)"]).set_index("per step")
 
 
-def section_speed_vs_paper(page: Any, episodes: "pandas.DataFrame", bench: "pandas.DataFrame") -> None:
-    """The Fig. 4c table beside the paper's numbers, with the conditions stated."""
+def measurement_conditions(episodes: "pandas.DataFrame", runs: "pandas.DataFrame | None") -> str:
+    """Where and how this report's episodes were timed: the camera (with its resolution), the
+    worker setting and the CPU of the runs that stored them (``runs``: the runs table)."""
+    from navbench.geometry import CAMERAS
+
+    if runs is None or runs.empty or episodes is None or episodes.empty or "run_id" not in episodes.columns:
+        return ""
+    used = runs[runs["id"].isin(set(int(r) for r in episodes["run_id"]))]
+    cams, workers = set(), set()
+    for cfg in used["config"]:
+        cfg = cfg if isinstance(cfg, dict) else {}
+        cam = cfg.get("camera")
+        if cam:
+            c = CAMERAS.get(cam)
+            cams.add(f"{cam} ({c.width} x {c.height})" if c is not None else str(cam))
+        if cfg.get("workers") is not None:
+            workers.add("CPU count" if cfg["workers"] == 0 else str(cfg["workers"]))
+    parts = []
+    if cams:
+        parts.append("camera " + ", ".join(sorted(cams)))
+    if workers:
+        parts.append("workers " + ", ".join(sorted(workers)))
+    cpus = sorted(set(used["cpu"].dropna().astype(str))) if "cpu" in used.columns else []
+    if cpus:
+        parts.append("CPU " + "; ".join(cpus))
+    return "; ".join(parts)
+
+
+def section_speed_vs_paper(page: Any, episodes: "pandas.DataFrame", bench: "pandas.DataFrame",
+                           runs: "pandas.DataFrame | None" = None) -> None:
+    """The Fig. 4c table beside the paper's numbers, with the conditions stated (``runs``: the
+    runs table, for the episodes' camera, workers and CPU)."""
     from navbench.bench.core import PAPER_HARDWARE
 
     t = speed_vs_paper(episodes, bench)
     page.table(t, "runtime_vs_paper", "Fig. 4c beside the paper: median milliseconds per step "
                "(last row: steps per second); – where not measured", index=True, digits=4)
+    measured = measurement_conditions(episodes, runs)
+    if measured:
+        page.p(f"The episodes of this report were timed with: {measured}.")
     page.note("Conditions: the episode columns are per-step medians recorded inside the "
               "navigation workers, each worker a process run single-threaded (numba and torch on "
               "one thread, one process per core), on the run's camera, while the other workers "

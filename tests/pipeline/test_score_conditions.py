@@ -154,3 +154,39 @@ def test_all_prints_the_conditions_of_its_score_csv(two_conditions, tmp_path, ca
         _print_claim(tmp_path / "paired.csv")
     out = " ".join(cap.get().split())  # captions wrap at the table's width
     assert out.count(f"conditions: {PAPER}") == 2  # under each of the two tables
+
+
+def test_report_states_the_conditions_and_never_pools_them(two_conditions, tmp_path):
+    """The report of a database with two sets of conditions: one Fig. 5a matrix, claim table
+    and claim figure per set, each captioned with its conditions; the per-level table and the
+    failure counts carry a conditions column; Fig. 4c names the camera, workers and CPU."""
+    import pandas as pd
+
+    from navbench.pipeline.report import build_report
+
+    d = two_conditions
+    r3 = d.start_run("six", "c", {"episode": PAPER_EPISODE, "camera": "half", "workers": 2}, "c")
+    d.add_episodes(r3, [episode("p-ours", 3, spl_term=0.5, condition_key="cond-paper")])
+    index = build_report(d, tmp_path / "rep", levels_dir=tmp_path / "nolevels", n_boot=50)
+    page = " ".join(index.read_text().split())
+    for conds in (DEFAULTS, PAPER):
+        assert f"all levels, [95% BCa bootstrap interval stratified by level], conditions: {conds}" in page
+        assert f"Noise low: ours − ablation on the same (task, seed); conditions: {conds}" in page
+        assert f"margin; conditions: {conds}" in page  # the claim figure's caption
+    assert "2 sets of simulator conditions, never pooled" in page
+    first = pd.read_csv(tmp_path / "rep" / "spl_table.csv", index_col=0)
+    second = pd.read_csv(tmp_path / "rep" / "spl_table_2.csv", index_col=0)
+    assert first.loc["low", "ours"].startswith("0.80 [") and second.loc["low", "ours"].startswith("0.76 [")
+    # (paper conditions: 0.95, 0.85, 0.75 and task 3's 0.5 -> 0.7625; shown to two digits)
+    scores = pd.read_csv(tmp_path / "rep" / "scores.csv")
+    paper_ours = scores[(scores["level"] == "all") & (scores["estimator"] == "ours")
+                        & (scores["conditions"] == PAPER)]
+    assert paper_ours["spl"].iloc[0] == pytest.approx(0.7625) and paper_ours["episodes"].iloc[0] == 4
+    reasons = pd.read_csv(tmp_path / "rep" / "end_reasons.csv")
+    assert sorted(reasons["conditions"]) == sorted(["defaults", "defaults", PAPER, PAPER])
+    eps = pd.read_csv(tmp_path / "rep" / "episodes.csv")
+    assert (eps["conditions"] == PAPER).sum() == 7 and (eps["conditions"] == DEFAULTS).sum() == 6
+    paired = pd.read_csv(tmp_path / "rep" / "paired_differences.csv")
+    row = paired[(paired["level"] == "all") & (paired["conditions"] == PAPER)].iloc[0]
+    assert row["pairs"] == 3 and row["unpaired_reference"] == 1  # task 3 has no dynamics partner
+    assert "camera half (160 x 120); workers 2" in page
