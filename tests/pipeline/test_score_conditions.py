@@ -190,3 +190,26 @@ def test_report_states_the_conditions_and_never_pools_them(two_conditions, tmp_p
     row = paired[(paired["level"] == "all") & (paired["conditions"] == PAPER)].iloc[0]
     assert row["pairs"] == 3 and row["unpaired_reference"] == 1  # task 3 has no dynamics partner
     assert "camera half (160 x 120); workers 2" in page
+
+
+def test_markdown_results_table(two_conditions):
+    """`score --format markdown`: per conditions, the pooled SPL beside the paper's Fig. 5a and
+    the paired difference beside the paper's margin; success with its exact interval."""
+    from navbench.cli.main import app
+    from navbench.nav.metrics import clopper_pearson
+
+    res = CliRunner().invoke(app, ["score", "--db", two_conditions.url, "--boot", "200", "--format", "markdown"])
+    assert res.exit_code == 0, res.output
+    out = res.stdout
+    blocks = out.split("Conditions: ")[1:]
+    assert [b.split(".")[0] for b in blocks] == [DEFAULTS, PAPER]
+    low_default = next(ln for ln in blocks[0].splitlines() if ln.startswith("| low | 0."))
+    low_paper = next(ln for ln in blocks[1].splitlines() if ln.startswith("| low | 0."))
+    cells = [c.strip() for c in low_paper.strip("|").split("|")]
+    assert cells[1].startswith("0.850 [") and cells[1].endswith("(0.92)")   # ours, paper 0.92
+    assert cells[2].startswith("0.100 [") and cells[2].endswith("(0.61)")   # dynamics
+    assert cells[3].startswith("+0.750 [") and cells[3].endswith("(+0.31)")  # ours - dynamics
+    assert "+0.500 [" in low_default and "0.800 [" in low_default
+    lo, hi = clopper_pearson(2, 3, 0.95)
+    success = next(ln for ln in blocks[1].splitlines() if ln.startswith("| low | 1.000"))
+    assert f"0.667 [{lo:.3f}, {hi:.3f}]" in success and "| 3 / 3 | 3 |" in success

@@ -17,6 +17,7 @@ class Format(str, Enum):
     table = "table"
     csv = "csv"
     json = "json"
+    markdown = "markdown"
 
 
 def _fmt(value: float, ci_low: float, ci_high: float, digits: int) -> str:
@@ -41,7 +42,8 @@ def score(
     differences ours - no-map and ours - dynamics on the same tasks and seeds. Success: exact
     (Clopper-Pearson) interval; SPL and differences: BCa bootstrap stratified by level. Every
     stored episode counts once per setup, task and seed; --run narrows to one run. --format json
-    prints {"scores": [...], "paired_differences": [...]}; csv prints the score table.
+    prints {"scores": [...], "paired_differences": [...]}; csv prints the score table; markdown
+    prints the pooled SPL and success tables beside the paper's (the README's results table).
     """
     import sys
 
@@ -64,6 +66,11 @@ def score(
         return
     if fmt is Format.csv:
         table.to_csv(sys.stdout, index=False, float_format="%.6g")
+        return
+    if fmt is Format.markdown:  # the README's results table (pooled rows), beside the paper's
+        from navbench.pipeline.results_table import markdown_results
+
+        sys.stdout.write(markdown_results(table, paired))
         return
     from rich.table import Table
 
