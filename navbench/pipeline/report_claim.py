@@ -250,12 +250,14 @@ def measurement_conditions(episodes: "pandas.DataFrame", runs: "pandas.DataFrame
             c = CAMERAS.get(cam)
             cams.add(f"{cam} ({c.width} x {c.height})" if c is not None else str(cam))
         if cfg.get("workers") is not None:
-            workers.add("CPU count" if cfg["workers"] == 0 else str(cfg["workers"]))
+            n = int(cfg["workers"])
+            workers.add("one worker process per CPU" if n == 0 else
+                        f"{n} worker process{'es' if n > 1 else ''}" + (" (in the run's process)" if n == 1 else ""))
     parts = []
     if cams:
         parts.append("camera " + ", ".join(sorted(cams)))
     if workers:
-        parts.append("workers " + ", ".join(sorted(workers)))
+        parts.append(" or ".join(sorted(workers)))
     cpus = sorted(set(used["cpu"].dropna().astype(str))) if "cpu" in used.columns else []
     if cpus:
         parts.append("CPU " + "; ".join(cpus))

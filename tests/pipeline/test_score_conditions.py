@@ -189,7 +189,7 @@ def test_report_states_the_conditions_and_never_pools_them(two_conditions, tmp_p
     paired = pd.read_csv(tmp_path / "rep" / "paired_differences.csv")
     row = paired[(paired["level"] == "all") & (paired["conditions"] == PAPER)].iloc[0]
     assert row["pairs"] == 3 and row["unpaired_reference"] == 1  # task 3 has no dynamics partner
-    assert "camera half (160 x 120); workers 2" in page
+    assert "camera half (160 x 120); 2 worker processes" in page
 
 
 def test_markdown_results_table(two_conditions):
