@@ -208,7 +208,8 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
         caption += ("; status running: the run had not finished when this page was written (a "
                     "`navbench all` run is marked done before it draws its report, so this is "
                     "another command, still running or killed)")
-    page.table(t, "runs", caption)
+    # proc_start (the liveness token of a running run) is in runs.csv, not in the page's width
+    page.table(t, "runs", caption, display=t.drop(columns=["proc_start"], errors="ignore"))
     for _, r in runs.tail(5).iterrows():
         page.sections.append(
             f"<details><summary>Resolved config of run {int(r['id'])} ({html.escape(str(r['command']))}, "
@@ -219,7 +220,7 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
 def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     import pandas as pd
 
-    from navbench.pipeline.plots import PAPER_SPL, plot_spl
+    from navbench.pipeline.plots import PAPER_SPL
 
     page.h2("Navigation: SPL by estimator and noise (Fig. 5a)", "spl")
     if table is None or table.empty:
@@ -243,7 +244,7 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     for conds in found:
         t = table if conds is None else table[table["conditions"] == conds]
         under = "" if conds is None else f"; conditions: {conds}"
-        page.figure(lambda fig, t=t: plot_spl(fig.add_subplot(), t, "all"),
+        page.figure(lambda fig, t=t, c=conds: _spl_panel(fig, t, c if len(found) > 1 else None),
                     "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
                     f"interval; black ticks: the paper's values{under}", (8, 4.2))
     page.h2("Scores per level", "scores")
@@ -259,6 +260,16 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     if idle:
         page.note(f"{', '.join(idle)}: no per-step tracking work, so no step time or rate is shown "
                   "(the step is the simulator and controller alone; scores.csv has its median).")
+
+
+def _spl_panel(fig, table: "pandas.DataFrame", conditions: str | None) -> None:
+    """Fig. 5a of one set of conditions (named in the title when the report has several)."""
+    from navbench.pipeline.plots import plot_spl
+
+    ax = fig.add_subplot()
+    plot_spl(ax, table, "all")
+    if conditions is not None:
+        ax.set_title(f"{ax.get_title()}\n{short_conditions(conditions)}", fontsize=10)
 
 
 def conditions_sentence(found: list, short: bool = False) -> str:
