@@ -263,6 +263,7 @@ def _compact_scores(table: "pandas.DataFrame") -> "pandas.DataFrame":
     rows = []
     for _, r in table.iterrows():
         rows.append({"level": r["level"], "estimator": r["estimator"], "noise": r["noise"],
+                     "goal": r.get("goal", "point"), "preset": r.get("preset", "paper"),
                      "episodes": r["episodes"], "success rate": fmt(r, "success_rate", 2),
                      "SPL": fmt(r, "spl", 2), "loc RMSE (m)": fmt(r, "loc_rmse_m", 3),
                      "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2),
@@ -433,13 +434,15 @@ def _bench_history(rows: "pandas.DataFrame") -> "pandas.DataFrame":
 def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: TrajectoryLoader | None = None,
                  load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
                  n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3,
-                 run: int | str | None = None, cell_keys: "Collection[str] | None" = None) -> Path:
+                 run: int | str | None = None, cell_keys: "Collection[str] | None" = None,
+                 preset: str = "paper") -> Path:
     """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
     ``NAME.json`` level files for the top views. The navigation sections show every stored
     episode, or those of ``run`` (as :func:`~navbench.pipeline.score.select_episodes`) and/or of
-    the cells ``cell_keys`` (``navbench all`` passes its grid's cells).
+    the cells ``cell_keys`` (``navbench all`` passes its grid's cells). Success and SPL follow
+    the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table.
     """
     from navbench import __version__
 
@@ -447,7 +450,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     out.mkdir(parents=True, exist_ok=True)
     page = _Page(out)
     runs = db.runs_frame()
-    episodes = select_episodes(db, run=run, cell_keys=cell_keys)
+    from navbench.pipeline.score_presets import apply_preset
+
+    episodes = apply_preset(select_episodes(db, run=run, cell_keys=cell_keys), preset)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 
@@ -457,6 +462,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)
     section_failures(page, episodes)
+    from navbench.pipeline.report_goals import section_goals  # issue 15
+
+    section_goals(page, episodes)
     _section_tracking(page, episodes, tracking, db.bench_frame())
     _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level,
                     load_map)
@@ -469,7 +477,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
         ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), ("failures", "Failures"),
-        ("scores", "Scores"), ("tracking", "Tracking"),
+        ("scores", "Scores"), ("goals", "Goals"), ("tracking", "Tracking"),
         ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench"),
         ("localization", "Localisation")))
     doc = (
