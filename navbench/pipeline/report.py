@@ -227,13 +227,16 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     if warning:
         page.note("Warning: " + warning.replace("--run", "`navbench report --run`") + ".")
     m = spl_matrix(table, "all")
-    page.table(m, "spl_table", "SPL pooled over all levels, [95% BCa bootstrap interval stratified "
-               "by level]", index=True)
+    preset = table["preset"].iloc[0] if "preset" in table.columns else "paper"  # issue 15
+    page.table(m, "spl_table", f"SPL pooled over all levels, [95% BCa bootstrap interval stratified "
+               f"by level]; scoring preset '{preset}'", index=True)
     paper = pd.DataFrame(
         [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
         index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
     page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
-    page.figure(lambda fig: plot_spl(fig.add_subplot(), table, "all"),
+    point = table[table["goal"] == "point"] if "goal" in table.columns and (table["goal"] == "point").any() \
+        else table  # Fig. 5a is the point-goal figure (issue 15: image goals in the goals section)
+    page.figure(lambda fig: plot_spl(fig.add_subplot(), point, "all"),
                 "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
                 "interval; black ticks: the paper's values", (8, 4.2))
     page.h2("Scores per level", "scores")
@@ -241,8 +244,8 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
            "means, RMSEs and step times medians over episodes. 95% intervals: success rate exact "
            "binomial (Clopper-Pearson); SPL a BCa bootstrap stratified by level (each resample "
            "keeps every level's episode count); medians a percentile bootstrap.")
-    page.table(table, "scores", "Scores per level, estimator and noise (level 'all': pooled); "
-               "value [95% interval]", digits=3, display=_compact_scores(table))
+    page.table(table, "scores", "Scores per level, estimator, noise and goal (level 'all': pooled); "
+               f"value [95% interval]; scoring preset '{preset}'", digits=3, display=_compact_scores(table))
     idle = sorted(set(table.loc[~table["tracking_work"].astype(bool), "estimator"])) \
         if "tracking_work" in table.columns else []
     if idle:

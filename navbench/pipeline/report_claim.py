@@ -96,7 +96,8 @@ def section_claim(page: Any, episodes: "pandas.DataFrame", n_boot: int, seed: in
            "a partner are left out and counted. The paper's margins are its Fig. 5a averages "
            "(not paired).")
     for noise, t in claim_tables(paired).items():
-        page.table(t, f"claim_{noise}", f"Noise {noise}: ours − ablation on the same (task, seed)")
+        page.table(t, f"claim_{noise}", f"Noise {noise}: ours − ablation on the same (task, seed); "
+                   f"scoring preset '{episodes.attrs.get('preset', 'paper')}'")
     paired.to_csv(page.out_dir / "paired_differences.csv", index=False, float_format="%.6g")
     page.csvs.append("paired_differences.csv")
     page.sections.append('<p class="meta">Every level, noise and comparison with full precision: '

@@ -348,6 +348,8 @@ def spl_matrix(table: "pandas.DataFrame", level: str = "all", digits: int = 2) -
     import pandas as pd
 
     t = table[table["level"] == level]
+    if "goal" in t.columns and (t["goal"] == "point").any():  # Fig. 5a is the point-goal figure
+        t = t[t["goal"] == "point"]
     noises = sorted(t["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER), reverse=True)
     ests = sorted(t["estimator"].unique(),
                   key=lambda e: (_order_key(e.split("{")[0], ESTIMATOR_ORDER), e))

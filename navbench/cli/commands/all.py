@@ -20,7 +20,8 @@ def _print_scores(path: Path) -> None:
     from rich.table import Table
 
     rows = list(csv.DictReader(open(path)))
-    t = Table(title="scores (95% bootstrap intervals in the report)")
+    preset = rows[0].get("preset") or "paper" if rows else "paper"  # issue 15: the scoring preset
+    t = Table(title=f"scores, preset {escape(preset)} (95% bootstrap intervals in the report)")
     cols = [("level", "level"), ("estimator", "estimator"), ("noise", "noise"), ("episodes", "n"),
             ("success_rate", "success"), ("spl", "SPL"), ("loc_rmse_m", "loc RMSE m"),
             ("rot_rmse_deg", "rot RMSE deg"), ("step_hz", "Hz")]
@@ -39,7 +40,7 @@ def _print_scores(path: Path) -> None:
     console.print(t)
 
 
-def _print_claim(path: Path) -> None:
+def _print_claim(path: Path, preset: str = "paper") -> None:
     """The paired differences the score stage stored (``ours`` minus each ablation), if any."""
     import pandas as pd
     from rich.markup import escape
@@ -51,7 +52,7 @@ def _print_claim(path: Path) -> None:
     except (FileNotFoundError, pd.errors.EmptyDataError):
         return
     if not paired.empty:
-        console.print(_paired_table(paired, escape))
+        console.print(_paired_table(paired, escape, preset))
 
 
 def register(app: typer.Typer) -> None:
@@ -83,7 +84,7 @@ def register(app: typer.Typer) -> None:
                                                     address=address, progress=ui, report_dir=report_dir,
                                                     command=command_line(), ref_name="all"))
         _print_scores(result.score.path)
-        _print_claim(result.score.path.parent / PAIRED_FILE)
+        _print_claim(result.score.path.parent / PAIRED_FILE, result.profile.scoring_preset)
         from navbench.pipeline.breakdown import format_breakdown
 
         console.print(f"where the time went (run {result.run_id}; stored in the database's run_timings):",
