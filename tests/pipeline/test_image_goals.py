@@ -137,3 +137,26 @@ def test_paper_preset_keeps_stored_values_and_nrns_rescores(tmp_path):
     with pytest.raises(ValueError, match="already scored"):
         apply_preset(nrns, "paper")
     db.close()
+
+
+def test_cli_goal_image_then_score_names_goal_and_preset(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from navbench.cli.main import app
+
+    (tmp_path / "levels").mkdir()
+    save_level(tiny_level(), tmp_path / "levels" / "tiny.json")
+    (tmp_path / "p.toml").write_text(PROFILE.replace('goal = "image"\n', "").replace('difficulty = ["easy"]\n', ""))
+    monkeypatch.chdir(tmp_path)
+    url = f"sqlite:///{tmp_path / 'c.db'}"
+    runner = CliRunner()
+    for goal in ("image", "point"):
+        res = runner.invoke(app, ["run-navigation", "--profile", "p.toml", "--tasks", "1", "--goal", goal,
+                                  "--estimators", "gt", "--noise", "none", "--db", url])
+        assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "20", "--by-difficulty", "--preset", "habitat",
+                              "--format", "json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert {r["goal"] for r in doc["scores"]} == {"image", "point"}
+    assert {r["preset"] for r in doc["scores"] + doc["by_difficulty"]} == {"habitat"}
