@@ -33,7 +33,9 @@ def apply_preset(frame: "pandas.DataFrame", preset: str = DEFAULT_PRESET,
     if frame.attrs.get("preset") not in (None, p.name):
         raise ValueError(f"the episodes are already scored under {frame.attrs['preset']!r}")
     f = frame.copy()
-    for col in ("final_dist_m", "final_geo_m", "goal"):
+    # a frame of other origin may lack columns: unknown values (no stop, no distance) score as
+    # failures under a preset that needs them; ``paper`` keeps the frame's own success and SPL
+    for col in ("final_dist_m", "final_geo_m", "goal", "end_reason", "steps", "path_length", "optimal_length"):
         if col not in f.columns:
             f[col] = None
     if f.empty:
