@@ -23,7 +23,9 @@ habitat   stopped within ``0.2 m`` geodesic                  geodesic           
           success_distance``)
 ========  =================================================  ======================  ==========
 
-An episode that ran more controls than a preset's step limit did not stop within it: not a
+Steps are executed controls; the stop itself is not counted (habitat counts its STOP action, so
+an episode stopping after exactly 500 moves is one action over habitat's limit there and within
+it here). An episode that ran more controls than a preset's step limit did not stop within it: not a
 success under that preset (its ``d_T`` is still the distance where it ended). Profiles refuse a
 preset with a step limit below ``max_steps`` (:func:`check_preset_steps`), so a run's own
 episodes never exceed it.
