@@ -69,3 +69,41 @@ def test_tasks_by_difficulty_have_exact_geodesic_bands_and_running_ids():
     assert sample_tasks(level, 4, 0) == sample_tasks(level, 4, 0, geodesic_range=None)
     with pytest.raises(TaskError, match="unknown difficulty 'extreme'"):
         sample_tasks_by_difficulty(level, 1, 0, ("extreme",))
+
+
+def _run(task, found, noise="low", seed=4):
+    from navbench.level import occupancy_raster
+    from navbench.nav.episode import EpisodeConfig, run_episode
+    from navbench.nav.imagegoal import run_image_goal_episode
+    from navbench.sim.world import Simulator
+    from navbench.track.registry import make_estimator
+    from tests.nav.levels import door_rooms
+
+    level = door_rooms()
+    occ, xs, ys = occupancy_raster(level, 0.057)
+    sim = Simulator(level, noise=noise, seed=seed, intrinsics=None)
+    if found == "point":
+        return run_episode(level, occ, xs, ys, task, make_estimator("dynamics"), sim, EpisodeConfig())
+    return run_image_goal_episode(level, occ, xs, ys, task, found, make_estimator("dynamics"), sim, EpisodeConfig())
+
+
+def test_image_goal_episode_found_at_the_target_is_the_point_goal_episode_bit_for_bit():
+    from navbench.plan.shortest import shortest_path_length
+    from tests.nav.levels import door_rooms
+
+    start, target = (1.0, 1.0, 0.3), (5.0, 2.0)  # through the door, low noise: reached in 38 steps
+    task = Task(0, start, target, shortest_path_length(door_rooms(), start[:2], target))
+    point = _run(task, "point")
+    image = _run(task, (target[0], target[1], 1.0))  # the goal found exactly where it is
+    for name in ("true_poses", "est_poses", "controls", "plan", "target"):
+        assert getattr(image, name).tobytes() == getattr(point, name).tobytes(), name
+    assert (image.end_reason, image.steps, image.replans) == (point.end_reason, point.steps, point.replans)
+    assert point.end_reason == "reached" and point.steps > 20
+    # found 0.3 m off: the agent plans there, the record keeps the TRUE target for scoring
+    off = _run(task, (target[0], target[1] - 0.3, 1.0))
+    np.testing.assert_array_equal(off.target, target)
+    assert off.plan[-1].tolist() != point.plan[-1].tolist()
+    # nothing found: no goal, no step
+    none = _run(task, None)
+    assert none.end_reason == "no-plan" and none.steps == 0 and none.true_poses.shape == (1, 3)
+    np.testing.assert_array_equal(none.target, target)
