@@ -467,7 +467,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     section_failures(page, episodes)
     from navbench.pipeline.report_goals import section_goals  # issue 15
 
-    section_goals(page, episodes)
+    section_goals(page, episodes, Path(levels_dir), db.tasks_frame())
     _section_tracking(page, episodes, tracking, db.bench_frame())
     _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level,
                     load_map)

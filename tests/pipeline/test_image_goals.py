@@ -68,6 +68,7 @@ def test_image_goal_episodes_end_to_end(image_run):
     assert len(rows) == 6 and set(rows["goal"]) == {"image"}
     for r in rows.itertuples():
         assert r.goal_status == goals[r.task_id]["status"] and r.goal_err_m == goals[r.task_id]["error_m"]
+        assert r.goal_heading == goals[r.task_id]["heading"]
         assert r.final_dist_m is not None and r.final_geo_m >= r.final_dist_m - 1e-9  # geodesic >= straight
     # scored against the TRUE target, as a point-goal episode: the stored success is the paper's rule
     assert all(bool(s) == (d < 0.4) for s, d in zip(rows["success"], rows["final_dist_m"]))
@@ -78,7 +79,7 @@ def test_image_goal_episodes_end_to_end(image_run):
     assert set(by_diff["difficulty"]) == {"easy", "all"} and set(by_diff["preset"]) == {"nrns"}
     html = result.report_path.read_text()
     assert "Scoring preset &#x27;nrns&#x27;" in html or "Scoring preset 'nrns'" in html
-    assert "goal_localization.csv" in html
+    assert "goal_localization.csv" in html and "tiny: goal images" in html and "unavailable" not in html
 
 
 def test_image_and_point_goal_cells_have_different_keys_and_point_keys_are_todays():

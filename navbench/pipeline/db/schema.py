@@ -76,7 +76,7 @@ _ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"),
                   # issue 15: the scoring presets' final distances, image goals' localisation
                   ("episodes", "final_dist_m"), ("episodes", "final_geo_m"), ("episodes", "goal"),
                   ("episodes", "goal_status"), ("episodes", "goal_err_m"),
-                  ("episodes", "goal_confidence"),
+                  ("episodes", "goal_confidence"), ("episodes", "goal_heading"),
                   # issue 14: raw odometry and the kidnapped-robot test of a tracking row
                   ("tracking", "raw_odom_ate_m"), ("tracking", "kidnaps"),
                   ("tracking", "kidnaps_detected"), ("tracking", "kidnaps_recovered"),
@@ -182,6 +182,7 @@ class EpisodeRow(Base):
     goal_status: Mapped[str | None] = mapped_column(String(16), nullable=True)
     goal_err_m: Mapped[float | None] = mapped_column(Float, nullable=True)
     goal_confidence: Mapped[float | None] = mapped_column(Float, nullable=True)
+    goal_heading: Mapped[float | None] = mapped_column(Float, nullable=True)  # rad, of the goal image
 
 
 class TrackingRow(Base):
@@ -239,7 +240,7 @@ _EPISODE_FIELDS = (
     "noise", "seed", "success", "spl_term", "path_length", "optimal_length", "steps", "end_reason",
     "collided", "loc_rmse_m", "rot_rmse_deg", *TIMING_COLUMNS, "step_ms", "traj_key",
     "condition_key", "final_dist_m", "final_geo_m", "goal", "goal_status", "goal_err_m",
-    "goal_confidence",
+    "goal_confidence", "goal_heading",
 )
 _EPISODE_REQUIRED = (
     "cell_key", "level", "task_id", "estimator", "noise", "seed", "success", "spl_term",

@@ -113,4 +113,4 @@ def goal_row_fields(goal: dict | None) -> dict:
     if goal is None:
         return {}
     return {"goal": "image", "goal_status": goal["status"], "goal_err_m": goal["error_m"],
-            "goal_confidence": goal["confidence"]}
+            "goal_confidence": goal["confidence"], "goal_heading": goal["heading"]}
