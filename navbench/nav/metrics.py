@@ -31,6 +31,11 @@ class EpisodeScore:
     steps: int
     end_reason: str
     collided: bool
+    # the final true position's distance to the target (m): Euclidean, and geodesic for the
+    # agent's disc (NaN unless a level or its visibility graph was given); the scoring presets'
+    # d_T (navbench.nav.presets)
+    final_dist_m: float = float("nan")
+    final_geo_m: float = float("nan")
 
 
 def path_length(true_poses) -> float:
@@ -81,8 +86,41 @@ def rmse(true_poses, est_poses) -> tuple[float, float]:
     return location_rmse(true_poses, est_poses), orientation_rmse(true_poses, est_poses)
 
 
-def score_episode(record, agent_length: float = AGENT_LENGTH) -> EpisodeScore:
-    """Score an :class:`navbench.nav.episode.EpisodeRecord` (only its recorded arrays are used)."""
+class FinalGeodesic:
+    """Geodesic distance (m) from a final position to the target for the agent's disc in the
+    TRUE geometry of ``level`` (:func:`navbench.plan.shortest.shortest_path`, its visibility
+    graph built once). Where the disc does not fit at the position (a pose that touched a
+    solid) the distance of a point (radius 0) is taken; NaN when even that fails."""
+
+    def __init__(self, level):
+        self.level = level
+        self._graphs: dict[float, object] = {}
+
+    def _graph(self, radius: float):
+        from navbench.plan.shortest import graph_for_level
+
+        if radius not in self._graphs:
+            self._graphs[radius] = graph_for_level(self.level, radius)
+        return self._graphs[radius]
+
+    def __call__(self, xy, target) -> float:
+        from navbench.errors import TaskError
+        from navbench.geometry import AGENT_RADIUS
+        from navbench.plan.shortest import shortest_path
+
+        for radius in (AGENT_RADIUS, 0.0):
+            try:
+                return float(shortest_path(self._graph(radius), xy, target)[0])
+            except TaskError:
+                continue
+        return float("nan")
+
+
+def score_episode(record, agent_length: float = AGENT_LENGTH, geodesic=None) -> EpisodeScore:
+    """Score an :class:`navbench.nav.episode.EpisodeRecord` (only its recorded arrays are used).
+
+    ``geodesic``: a :class:`FinalGeodesic` of the episode's level (``(xy, target) -> m``) for
+    ``final_geo_m``; without it ``final_geo_m`` is NaN."""
     tp = np.asarray(record.true_poses, dtype=np.float64)
     ep = np.asarray(record.est_poses, dtype=np.float64)
     ok = success(tp[-1, :2], record.target, agent_length)
@@ -97,6 +135,9 @@ def score_episode(record, agent_length: float = AGENT_LENGTH) -> EpisodeScore:
         steps=len(tp) - 1,
         end_reason=str(record.end_reason),
         collided=bool(record.collided),
+        final_dist_m=float(math.dist(tp[-1, :2], np.asarray(record.target, float)[:2])),
+        final_geo_m=(geodesic(tp[-1, :2], np.asarray(record.target, float)[:2])
+                     if geodesic is not None else float("nan")),
     )
 
 

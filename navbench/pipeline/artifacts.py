@@ -20,10 +20,11 @@ import numpy as np
 from navbench.config import to_jsonable
 
 
-#: Artifact format versions: bump one to invalidate that stage's cache.
+#: Artifact format versions: bump one to invalidate that stage's cache. score 5 (issues 15, 16):
+#: score.csv gained conditions, goal, preset, soft_spl, final_dist_m; by_difficulty.csv beside it.
 FORMAT = {"make-level": 1, "collect-views": 1, "fit-map": 1, "true-map": 1, "sample-tasks": 1,
-          "episode": 1, "score": 4, "report": 4, "verify": 1, "track-eval": 1,
-          "import-views": 1, "localize-bank": 1, "localize-eval": 2}
+          "episode": 1, "score": 5, "report": 5, "verify": 1, "track-eval": 1,
+          "import-views": 1, "localize-bank": 1, "localize-eval": 2, "image-goals": 1}
 
 
 VERIFY_FILE = "verified.json"

@@ -9,13 +9,14 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
     level_seed = 1
     [views]       camera, count, seed, eval_count, eval_seed
     [fit]         steps, seed, and optionally any other FitConfig field
-    [tasks]       count, seed
+    [tasks]       count, seed, difficulty (NRNS names: count tasks of each; issue 15)
     [navigation]  estimators, noise, seeds, workers (0 = CPU count), map ("fit" or "true"),
-                  and optional
+                  goal ("point" or "image"), and optional
                   [navigation.episode] (EpisodeConfig fields) and
                   [navigation.options.<estimator>] (estimator keyword arguments)
     [conditions]  the paper's simulator conditions by name (navbench.sim.conditions), e.g.
                   pose_quantisation = "round"; they set [navigation.episode] fields
+    [scoring]     preset: "paper", "nrns" or "habitat" (navbench.nav.presets)
 
 Unknown keys are errors (a typo must not silently fall back to a default). Every field is
 checked for its type and range when the profile is loaded and again after CLI overrides, so a
@@ -44,6 +45,7 @@ from typing import Any, Callable
 
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_NAMES
+from navbench.nav.presets import DIFFICULTY_BANDS, PRESETS, check_preset_steps
 
 PROFILES_DIR = Path(__file__).resolve().parent.parent / "profiles"
 DEFAULT_PROFILE = "quick"
@@ -253,8 +255,7 @@ def _check_typed(v: Any, tp: Any, rng: Any) -> None:
 
 
 def _check_table(cls: type, values: Any, ranges: dict[str, Any], prefix: str = "") -> None:
-    """Check a TOML table against the fields of the dataclass ``cls``; nested dataclass fields
-    take a table of their own fields. Raises :class:`_Invalid` with the field's dotted path."""
+    """Check a TOML table against dataclass ``cls`` (nested ones: tables); errors name the dotted path."""
     import typing
 
     if not isinstance(values, dict):
@@ -276,8 +277,7 @@ def _check_table(cls: type, values: Any, ranges: dict[str, Any], prefix: str = "
 
 
 def _check_fit(fit: Any) -> None:
-    """``[fit]`` extras: FitConfig fields with their types and ranges (imports the fit module,
-    which brings numba; only when extras are given), then FitConfig's own checks."""
+    """``[fit]`` extras: FitConfig fields, types and ranges (numba only then), then FitConfig's checks."""
     if not isinstance(fit, dict):
         raise _Invalid(f"expected a table, got {fit!r}")
     if not fit:
@@ -370,6 +370,9 @@ class Profile:
     map_source: str = "fit"          # "fit": fitted world model; "true": voxelized true geometry; or a .npz path
     episode: dict = field(default_factory=dict)    # EpisodeConfig fields
     estimator_options: dict = field(default_factory=dict)  # estimator -> keyword arguments
+    tasks_difficulty: tuple[str, ...] = ()  # NRNS difficulties, [tasks] count of each (issue 15)
+    goal: str = "point"              # "point" (coordinates) or "image" (the goal image; issue 15)
+    scoring_preset: str = "paper"    # navbench.nav.presets: paper, nrns, habitat
 
     def __post_init__(self):
         validate(self, _WHERE.get())
@@ -411,6 +414,9 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "map_source": ("[navigation] map", lambda v: _check_map_source(v)),
     "episode": ("[navigation.episode]", _check_episode),
     "estimator_options": ("", _check_options),  # its messages name [navigation.options.<estimator>]
+    "tasks_difficulty": ("[tasks] difficulty", lambda v: v == () or _check_names(v, "difficulty", lambda: list(DIFFICULTY_BANDS))),
+    "goal": ("[navigation] goal", lambda v: _check_str(v, ("point", "image"))),
+    "scoring_preset": ("[scoring] preset", lambda v: _check_str(v, tuple(PRESETS))),
 }
 
 #: Fields holding a table: their messages continue the section label with the table's own field.
@@ -419,7 +425,7 @@ _TABLE_FIELDS = ("fit", "episode", "estimator_options")
 #: The CLI option that overrides a profile field (named in messages about overridden values).
 OPTION_NAMES = {"levels": "LEVELS", "estimators": "--estimators", "noise": "--noise",
                 "tasks": "--tasks", "seeds": "--seeds", "workers": "--workers", "map_source": "--map",
-                "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera"}
+                "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera", "goal": "--goal", "scoring_preset": "--preset"}
 
 
 def check_field(fname: str, value: Any, where: str, label: str | None = None) -> None:
@@ -442,12 +448,13 @@ def validate(p: Profile, where: str | None = None) -> None:
     if p.eval_seed == p.views_seed:
         raise ConfigError(f"{where}: [views] eval_seed must differ from [views] seed "
                           "(the held-out views must not be the training views)")
+    check_preset_steps(p.scoring_preset, p.episode.get("max_steps", 500), where)
     check_grid_size(p, where)
 
 
 def grid_size(p: Profile) -> int:
     """Episodes in the profile's grid: levels x estimators x noise x tasks x seeds."""
-    return len(dict.fromkeys(p.levels)) * len(p.estimators) * len(p.noise) * p.tasks * p.seeds
+    return len(dict.fromkeys(p.levels)) * len(p.estimators) * len(p.noise) * p.tasks * max(1, len(p.tasks_difficulty)) * p.seeds
 
 
 def check_grid_size(p: Profile, where: str) -> None:
@@ -464,10 +471,11 @@ _SECTIONS: dict[str, dict[str, str]] = {
     "views": {"camera": "camera", "count": "views", "seed": "views_seed",
               "eval_count": "eval_views", "eval_seed": "eval_seed"},
     "fit": {"steps": "fit_steps", "seed": "fit_seed"},
-    "tasks": {"count": "tasks", "seed": "tasks_seed"},
+    "tasks": {"count": "tasks", "seed": "tasks_seed", "difficulty": "tasks_difficulty"},
     "navigation": {"estimators": "estimators", "noise": "noise", "seeds": "seeds",
                    "workers": "workers", "map": "map_source", "episode": "episode",
-                   "options": "estimator_options"},
+                   "options": "estimator_options", "goal": "goal"},
+    "scoring": {"preset": "scoring_preset"},
     "conditions": {},  # navbench.sim.conditions: set into [navigation.episode] on loading
 }
 
@@ -505,7 +513,7 @@ def profile_from_dict(doc: dict[str, Any], source: str = "<profile>") -> Profile
     kw["fit"] = fit_extra
     for fname, value in kw.items():  # in file order, each message naming the file and field
         check_field(fname, value, source)
-    for k in ("levels", "estimators", "noise"):
+    for k in ("levels", "estimators", "noise", "tasks_difficulty"):
         if k in kw:
             kw[k] = tuple(kw[k])
     with _validating_as(source):
@@ -557,7 +565,6 @@ def override(profile: Profile, **changes: Any) -> Profile:
         return dataclasses.replace(profile, **changes)
 
 
-
 @functools.lru_cache(maxsize=1)
 def _bundled_docs() -> tuple[tuple[str, dict], ...]:
     """``(name, parsed TOML)`` of every readable bundled profile, parsed once per process."""
@@ -573,11 +580,8 @@ def _bundled_docs() -> tuple[tuple[str, dict], ...]:
 def bundled_field_values(fname: str) -> dict[str, Any]:
     """``{profile name: value}`` of the :class:`Profile` field ``fname`` in every bundled profile,
     as the TOML file writes it, else the field's default (``fit``: the extra FitConfig fields).
-
-    For help texts that cite the real defaults: unchecked and cheap (a full load validates the
-    estimator names, which imports the estimator registry and with it numba); the files are
-    read once per process and the values are shared, so treat them as read-only. A bundled
-    file that cannot be read is left out; loading it reports the error where it matters."""
+    For help texts: unchecked and cheap (no numba), read once per process, values shared (treat
+    them as read-only); an unreadable bundled file is left out (loading it reports the error)."""
     if fname == "fit":
         section, key = "fit", None
     else:

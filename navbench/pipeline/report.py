@@ -230,19 +230,22 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     if warning:
         page.note("Warning: " + warning.replace("--run", "`navbench report --run`") + ".")
     found = conditions_in(table) or [None]
+    preset = table["preset"].iloc[0] if "preset" in table.columns and len(table) else "paper"  # issue 15
     page.p(conditions_sentence(found))
     for i, conds in enumerate(found):
         t = table if conds is None else table[table["conditions"] == conds]
         under = "" if conds is None else f", conditions: {conds}"
         page.table(spl_matrix(t, "all"), "spl_table" + (f"_{i + 1}" if i else ""),
-                   f"SPL pooled over all levels, [95% BCa bootstrap interval stratified by level]{under}",
-                   index=True)
+                   f"SPL pooled over all levels, [95% BCa bootstrap interval stratified by level]{under}; "
+                   f"scoring preset '{preset}'", index=True)
     paper = pd.DataFrame(
         [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
         index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
     page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
+    point = table[table["goal"] == "point"] if "goal" in table.columns and (table["goal"] == "point").any() \
+        else table  # Fig. 5a is the point-goal figure (issue 15: image goals in the goals section)
     for conds in found:
-        t = table if conds is None else table[table["conditions"] == conds]
+        t = point if conds is None else point[point["conditions"] == conds]
         under = "" if conds is None else f"; conditions: {conds}"
         page.figure(lambda fig, t=t, c=conds: _spl_panel(fig, t, c if len(found) > 1 else None),
                     "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
@@ -252,9 +255,9 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
            "means, RMSEs and step times medians over episodes. 95% intervals: success rate exact "
            "binomial (Clopper-Pearson); SPL a BCa bootstrap stratified by level (each resample "
            "keeps every level's episode count); medians a percentile bootstrap.")
-    page.table(table, "scores", "Scores per level, estimator and noise (level 'all': pooled); "
-               f"value [95% interval]; {conditions_sentence(found, short=True)}", digits=3,
-               display=_compact_scores(table, several=len(found) > 1))
+    page.table(table, "scores", "Scores per level, estimator, noise and goal (level 'all': pooled); "
+               f"value [95% interval]; scoring preset '{preset}'; {conditions_sentence(found, short=True)}",
+               digits=3, display=_compact_scores(table, several=len(found) > 1))
     idle = sorted(set(table.loc[~table["tracking_work"].astype(bool), "estimator"])) \
         if "tracking_work" in table.columns else []
     if idle:
@@ -302,6 +305,7 @@ def _compact_scores(table: "pandas.DataFrame", several: bool = False) -> "pandas
     for _, r in table.iterrows():
         rows.append({"level": r["level"], "estimator": r["estimator"], "noise": r["noise"],
                      **({"conditions": short_conditions(r["conditions"])} if several else {}),
+                     "goal": r.get("goal", "point"), "preset": r.get("preset", "paper"),
                      "episodes": r["episodes"], "success rate": fmt(r, "success_rate", 2),
                      "SPL": fmt(r, "spl", 2), "loc RMSE (m)": fmt(r, "loc_rmse_m", 3),
                      "rot RMSE (deg)": fmt(r, "rot_rmse_deg", 2),
@@ -472,13 +476,15 @@ def _bench_history(rows: "pandas.DataFrame") -> "pandas.DataFrame":
 def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: TrajectoryLoader | None = None,
                  load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
                  n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3,
-                 run: int | str | None = None, cell_keys: "Collection[str] | None" = None) -> Path:
+                 run: int | str | None = None, cell_keys: "Collection[str] | None" = None,
+                 preset: str = "paper") -> Path:
     """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
     ``NAME.json`` level files for the top views. The navigation sections show every stored
     episode, or those of ``run`` (as :func:`~navbench.pipeline.score.select_episodes`) and/or of
-    the cells ``cell_keys`` (``navbench all`` passes its grid's cells).
+    the cells ``cell_keys`` (``navbench all`` passes its grid's cells). Success and SPL follow
+    the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table.
     """
     from navbench import __version__
 
@@ -486,7 +492,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     out.mkdir(parents=True, exist_ok=True)
     page = _Page(out)
     runs = db.runs_frame()
-    episodes = select_episodes(db, run=run, cell_keys=cell_keys)
+    from navbench.pipeline.score_presets import apply_preset
+
+    episodes = apply_preset(select_episodes(db, run=run, cell_keys=cell_keys), preset)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 
@@ -496,6 +504,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)
     section_failures(page, episodes)
+    from navbench.pipeline.report_goals import section_goals  # issue 15
+
+    section_goals(page, episodes, Path(levels_dir), db.tasks_frame())
     _section_tracking(page, episodes, tracking, db.bench_frame(), runs)
     _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level,
                     load_map)
@@ -508,7 +519,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
         ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), ("failures", "Failures"),
-        ("scores", "Scores"), ("tracking", "Tracking"),
+        ("scores", "Scores"), ("goals", "Goals"), ("tracking", "Tracking"),
         ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench"),
         ("localization", "Localisation")))
     doc = (

@@ -98,12 +98,14 @@ def section_claim(page: Any, episodes: "pandas.DataFrame", n_boot: int, seed: in
            "a partner are left out and counted. The paper's margins are its Fig. 5a averages "
            "(not paired).")
     found = conditions_in(paired) or [None]
+    preset = episodes.attrs.get("preset", "paper")
     for i, conds in enumerate(found):
         p = paired if conds is None else paired[paired["conditions"] == conds]
         under = "" if conds is None else f"; conditions: {conds}"
         for noise, t in claim_tables(p).items():
             page.table(t, f"claim_{noise}" + (f"_{i + 1}" if i else ""),
-                       f"Noise {noise}: ours − ablation on the same (task, seed){under}")
+                       f"Noise {noise}: ours − ablation on the same (task, seed){under}; "
+                       f"scoring preset '{preset}'")
     paired.to_csv(page.out_dir / "paired_differences.csv", index=False, float_format="%.6g")
     page.csvs.append("paired_differences.csv")
     page.sections.append('<p class="meta">Every level, noise and comparison with full precision: '

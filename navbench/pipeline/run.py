@@ -18,6 +18,7 @@ Progress is reported through a :class:`Progress` (log lines, progress bars); the
 
 from __future__ import annotations
 
+import dataclasses
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -141,7 +142,13 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
     inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
     cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
                            seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
-                           estimator_options=dict(profile.estimator_options))
+                           estimator_options=dict(profile.estimator_options), goal=profile.goal)
+    if cfg.goal == "image":  # issue 15: every task's goal image localised in the level's map
+        from navbench.pipeline.stages.goals import ImageGoalConfig
+        from navbench.pipeline.stages.inputs import with_image_goals
+
+        cfg = dataclasses.replace(cfg, image_goal=ImageGoalConfig(camera=profile.camera))
+        inputs = [with_image_goals(ctx, li, cfg.image_goal) for li in inputs]
     bar: dict[str, Callable[[int], None]] = {}
 
     def on_total(n: int) -> None:
@@ -237,13 +244,14 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
         ref = f"{ref_name}-{prof.name}"
         with recorded_run(rdb, prof.name, command, prof, ctx, ref) as run_id:
             inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress)
-            score = score_stage(ctx, summary.cells) if until in ("score", "report") else None
+            score = score_stage(ctx, summary.cells, preset=prof.scoring_preset) \
+                if until in ("score", "report") else None
         # The run is marked done before its report is drawn, so the page it publishes shows it
         # finished; a report that fails marks it failed (or interrupted) after all.
         report = None
         if until == "report":
             try:
-                report = report_stage(ctx, summary.cells, score)
+                report = report_stage(ctx, summary.cells, score, preset=prof.scoring_preset)
             except BaseException as e:
                 rdb.finish_run(run_id, "interrupted" if isinstance(e, KeyboardInterrupt) else "failed")
                 raise

@@ -65,6 +65,12 @@ METRICS: tuple[tuple[str, str, str], ...] = (
     ("rot_rmse_deg", "rot_rmse_deg", "median"),
     ("step_ms", "step_ms", "median"),
 )
+#: Issue 15's metrics, after the columns above: habitat's SoftSPL and the mean final distance
+#: to the goal (the preset's d_T, m; navbench.nav.presets)
+PRESET_METRICS: tuple[tuple[str, str, str], ...] = (
+    ("soft_spl", "soft_spl_term", "mean"),
+    ("final_dist_m", "dist_to_goal_m", "mean"),
+)
 _STATS: dict[str, Callable] = {"mean": np.mean, "median": np.median}
 
 
@@ -260,23 +266,32 @@ def _strata(cell: "pandas.DataFrame", col: str) -> list[np.ndarray]:
 
 
 def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
-              pooled: bool = True) -> "pandas.DataFrame":
-    """Per (level, estimator, noise) metrics with bootstrap intervals from an episodes frame.
+              pooled: bool = True, preset: str | None = None) -> "pandas.DataFrame":
+    """Per (level, estimator, noise, goal) metrics with bootstrap intervals from an episodes frame.
 
     ``pooled`` adds ``level = "all"`` rows over every level. Columns: level, estimator, noise,
     episodes, then for each metric ``m``: ``m``, ``m_ci_low``, ``m_ci_high``; and ``step_hz``
     with its interval. ``conditions``: the simulator conditions of the row's episodes
     (:func:`with_conditions`; a frame without the column is :data:`UNRECORDED_CONDITIONS`): rows
-    are per (level, estimator, noise, conditions), so episodes run under different conditions
-    never pool into one row. Rows sorted by level ("all" last), conditions (the defaults first),
-    noise, estimator.
+    are per (level, estimator, noise, conditions, goal), so episodes run under different
+    conditions never pool into one row. Then (issue 15) ``goal``, ``preset`` and the
+    :data:`PRESET_METRICS` with their intervals. Success and SPL follow the scoring ``preset``
+    (:func:`navbench.pipeline.score_presets.apply_preset`; default the frame's own, else
+    ``paper``: the stored values). Rows sorted by level ("all" last), conditions (the defaults
+    first), noise, goal, estimator.
     """
     import pandas as pd
+
+    from navbench.pipeline.score_presets import GOAL_ORDER, apply_preset
 
     columns = ["level", "estimator", "noise", "episodes", "setups"]
     for name, _, _ in METRICS:
         columns += [name, f"{name}_ci_low", f"{name}_ci_high"]
-    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high", "tracking_work", "conditions"]
+    columns += ["step_hz", "step_hz_ci_low", "step_hz_ci_high", "tracking_work", "conditions", "goal", "preset"]
+    for name, _, _ in PRESET_METRICS:
+        columns += [name, f"{name}_ci_low", f"{name}_ci_high"]
+    if "soft_spl_term" not in frame.columns or (preset and preset != frame.attrs.get("preset")):
+        frame = apply_preset(frame, preset or "paper")
     if frame.empty:
         return pd.DataFrame(columns=columns)
     f = frame.copy()
@@ -288,18 +303,19 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
         groups.append(("all", f))
     out = []
     for lvl, g in groups:
-        for (est, noise, conds), cell in g.groupby(["variant", "noise", "conditions"], sort=False):
+        for (est, noise, conds, goal), cell in g.groupby(["variant", "noise", "conditions", "goal"], sort=False):
             setup_col = "setup" if "setup" in cell.columns else "cell_key"
             setups = int(cell.groupby("level")[setup_col].nunique().max())
             row: dict[str, Any] = {"level": lvl, "estimator": est, "noise": noise, "conditions": conds,
-                                   "episodes": int(len(cell)), "setups": setups}
-            for name, col, stat in METRICS:
+                                   "episodes": int(len(cell)), "setups": setups, "goal": goal,
+                                   "preset": f.attrs.get("preset", "paper")}
+            for name, col, stat in METRICS + PRESET_METRICS:
                 vals = cell[col].to_numpy(dtype=float)
                 row[name] = _point(vals, stat)
                 if name == "success_rate":
                     ok = vals[np.isfinite(vals)]
                     ci = clopper_pearson(int(ok.sum()), ok.size, CI_LEVEL)
-                elif name == "spl":
+                elif name in ("spl", "soft_spl"):
                     ci = stratified_bootstrap_ci(_strata(cell, col), CI_LEVEL, n_boot, seed)
                 else:
                     ci = bootstrap_ci(vals, stat, n_boot, seed)
@@ -315,7 +331,7 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
             out.append(row)
     table = pd.DataFrame(out, columns=columns)
     key = table.apply(lambda r: (r["level"] == "all", r["level"], _conditions_order(r["conditions"]),
-                                 _order_key(r["noise"], NOISE_ORDER),
+                                 _order_key(r["noise"], NOISE_ORDER), _order_key(r["goal"], GOAL_ORDER),
                                  _order_key(r["estimator"].split("{")[0], ESTIMATOR_ORDER),
                                  r["estimator"]), axis=1)
     return table.iloc[sorted(range(len(table)), key=lambda i: key.iloc[i])].reset_index(drop=True)
@@ -341,20 +357,24 @@ def mixed_setups_warning(table: "pandas.DataFrame") -> str | None:
 
 
 def score_table(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,
-                n_boot: int = N_BOOT, seed: int = 0) -> "pandas.DataFrame":
-    """Score the stored episodes: :func:`select_episodes` then :func:`summarise`.
-
-    Raises :class:`DatabaseError` when no episode matches.
+                n_boot: int = N_BOOT, seed: int = 0, preset: str = "paper") -> "pandas.DataFrame":
+    """Score the stored episodes: :func:`select_episodes` then :func:`summarise` under the
+    scoring ``preset``. Raises :class:`DatabaseError` when no episode matches.
     """
-    return summarise(_selected(db, run, level), n_boot=n_boot, seed=seed)
+    from navbench.pipeline.score_presets import apply_preset
+
+    return summarise(apply_preset(_selected(db, run, level), preset), n_boot=n_boot, seed=seed)
 
 
 def score_tables(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,
-                 n_boot: int = N_BOOT, seed: int = 0) -> tuple["pandas.DataFrame", "pandas.DataFrame"]:
+                 n_boot: int = N_BOOT, seed: int = 0,
+                 preset: str = "paper") -> tuple["pandas.DataFrame", "pandas.DataFrame"]:
     """``(score table, paired differences)`` of the stored episodes: :func:`score_table` and
-    :func:`paired_differences` of the same selection. Raises :class:`DatabaseError` when no
-    episode matches."""
-    frame = _selected(db, run, level)
+    :func:`paired_differences` of the same selection, both under the scoring ``preset``.
+    Raises :class:`DatabaseError` when no episode matches."""
+    from navbench.pipeline.score_presets import apply_preset
+
+    frame = apply_preset(_selected(db, run, level), preset)
     return (summarise(frame, n_boot=n_boot, seed=seed),
             paired_differences(frame, n_boot=n_boot, seed=seed))
 
@@ -379,6 +399,8 @@ def spl_matrix(table: "pandas.DataFrame", level: str = "all", digits: int = 2,
     t = table[table["level"] == level]
     if conditions is not None and "conditions" in t.columns:
         t = t[t["conditions"] == conditions]
+    if "goal" in t.columns and (t["goal"] == "point").any():  # Fig. 5a is the point-goal figure
+        t = t[t["goal"] == "point"]
     noises = sorted(t["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER), reverse=True)
     ests = sorted(t["estimator"].unique(),
                   key=lambda e: (_order_key(e.split("{")[0], ESTIMATOR_ORDER), e))
@@ -507,3 +529,46 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
             _order_key(r.other.split("{")[0], ESTIMATOR_ORDER), r.other) for r in table.itertuples()]
     order = sorted(range(len(table)), key=lambda i: key[i])
     return table.iloc[order].reset_index(drop=True)
+
+
+def difficulty_table(frame: "pandas.DataFrame", preset: str = "paper") -> "pandas.DataFrame":
+    """Success rate (with its exact 95 % interval), SPL, SoftSPL and mean final distance per
+    (level, estimator variant, noise, goal, difficulty), with pooled ``level = "all"`` and
+    ``difficulty = "all"`` rows; columns ``preset``, ``level``, ``estimator``, ``noise``,
+    ``goal``, ``difficulty``, ``episodes``, ``success_rate``, ``success_rate_ci_low``,
+    ``success_rate_ci_high``, ``spl``, ``soft_spl``, ``final_dist_m``."""
+    import pandas as pd
+
+    from navbench.pipeline.score_presets import DIFFICULTY_ORDER, GOAL_ORDER, apply_preset
+
+    cols = ["preset", "level", "estimator", "noise", "goal", "difficulty", "episodes", "success_rate",
+            "success_rate_ci_low", "success_rate_ci_high", "spl", "soft_spl", "final_dist_m"]
+    f = frame if "soft_spl_term" in frame.columns else apply_preset(frame, preset)
+    name = f.attrs.get("preset", preset)
+    if f.empty:
+        return pd.DataFrame(columns=cols)
+    f = f.assign(variant=estimator_variants(f), success=f["success"].astype(float))
+    out = []
+    levels = [(lvl, g) for lvl, g in f.groupby("level", sort=True)] + [("all", f)]
+    for lvl, g in levels:
+        for (est, noise, goal), cell in g.groupby(["variant", "noise", "goal"], sort=False):
+            parts = [(d, c) for d, c in cell.groupby("difficulty", sort=False)] + [("all", cell)]
+            for diff, c in parts:
+                ok = c["success"].to_numpy(dtype=float)
+                lo, hi = clopper_pearson(int(ok.sum()), ok.size, 0.95)
+                out.append({"preset": name, "level": lvl, "estimator": est, "noise": noise, "goal": goal,
+                            "difficulty": diff, "episodes": int(len(c)), "success_rate": float(ok.mean()),
+                            "success_rate_ci_low": lo, "success_rate_ci_high": hi,
+                            "spl": float(c["spl_term"].astype(float).mean()),
+                            "soft_spl": _finite_mean(c["soft_spl_term"]), "final_dist_m": _finite_mean(c["dist_to_goal_m"])})
+    table = pd.DataFrame(out, columns=cols)
+    key = [(r.level == "all", r.level, _order_key(r.noise, NOISE_ORDER), _order_key(r.goal, GOAL_ORDER),
+            _order_key(r.estimator.split("{")[0], ESTIMATOR_ORDER), r.estimator,
+            _order_key(r.difficulty, DIFFICULTY_ORDER)) for r in table.itertuples()]
+    return table.iloc[sorted(range(len(table)), key=lambda i: key[i])].reset_index(drop=True)
+
+
+def _finite_mean(values) -> float:
+    x = np.asarray(values, dtype=float)
+    x = x[np.isfinite(x)]
+    return float(x.mean()) if x.size else float("nan")

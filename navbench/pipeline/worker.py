@@ -26,8 +26,10 @@ def _worker_inputs(spec: ChunkSpec):
         level = load_level(spec.level_path)
         vmap = load_world_model(spec.map_path)
         occ2d, xs, ys = vmap.occupancy_slice(spec.slice_mode)
+        from navbench.nav.metrics import FinalGeodesic
+
         tasks = {t.id: t for t in load_tasks(spec.tasks_path)}
-        hit = (level, vmap, occ2d, xs, ys, tasks)
+        hit = (level, vmap, occ2d, xs, ys, tasks, FinalGeodesic(level))
         _WORKER_MEMO.clear()  # one level at a time keeps worker memory flat
         _WORKER_MEMO[memo_key] = hit
     return hit
@@ -42,8 +44,13 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
     from navbench.sim.world import Simulator
     from navbench.track.registry import make_estimator, uses_frames
 
-    level, vmap, occ2d, xs, ys, tasks = _worker_inputs(spec)
+    level, vmap, occ2d, xs, ys, tasks, geodesic = _worker_inputs(spec)
     intr = camera_by_name(spec.camera)
+    goals = None
+    if spec.goals_path:
+        from navbench.pipeline.stages.goals import load_goals
+
+        goals = load_goals(spec.goals_path)
     out = []
     for job in spec.jobs:
         c = job.cell
@@ -54,6 +61,13 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
                         pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check)
         est = make_estimator(c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT,
                              renderer=None, seed=job.estimator_seed, **c.options)
-        record = run_episode(level, occ2d, xs, ys, tasks[job.task_id], est, sim, config=ep_cfg)
-        out.append((job, record, score_episode(record)))
+        task = tasks[job.task_id]
+        if goals is None:
+            record = run_episode(level, occ2d, xs, ys, task, est, sim, config=ep_cfg)
+        else:  # plan and track to the goal found in the map; scored against the true target
+            from navbench.nav.imagegoal import run_image_goal_episode
+
+            record = run_image_goal_episode(level, occ2d, xs, ys, task, goals[job.task_id]["pose"],
+                                            est, sim, ep_cfg)
+        out.append((job, record, score_episode(record, geodesic=geodesic)))
     return out

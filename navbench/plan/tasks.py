@@ -99,7 +99,8 @@ def _free_points(level, rng: np.random.Generator, min_clearance: float, batch: i
 
 def sample_tasks(level, count: int = 200, seed: int = 0, min_clearance: float = MIN_CLEARANCE,
                  min_separation: float = MIN_SEPARATION, radius: float = AGENT_RADIUS,
-                 max_tries: int = 100_000) -> list[Task]:
+                 max_tries: int = 100_000, geodesic_range: tuple[float, float] | None = None,
+                 first_id: int = 0) -> list[Task]:
     """Sample ``count`` tasks in ``level`` (TRUE geometry), deterministic in ``seed``.
 
     Start and target are drawn uniformly in the level box among points with clearance
@@ -107,6 +108,9 @@ def sample_tasks(level, count: int = 200, seed: int = 0, min_clearance: float = 
     the points are farther apart than ``min_separation`` (m) and the target is reachable for a
     disc of ``radius`` (m); the start heading is uniform in ``[-pi, pi)``. Rejected pairs are
     redrawn (this is rejection sampling, so the kept pairs stay uniform given the constraints).
+    ``geodesic_range = (lo, hi)`` (m) also rejects pairs whose exact shortest path is outside
+    ``[lo, hi]`` (NRNS difficulty, :func:`sample_tasks_by_difficulty`); ``seed`` may be anything
+    :func:`numpy.random.default_rng` takes. Task ids start at ``first_id``.
     """
     from navbench.plan.shortest import graph_for_level, shortest_path
 
@@ -129,8 +133,26 @@ def sample_tasks(level, count: int = 200, seed: int = 0, min_clearance: float = 
             length, _ = shortest_path(graph, s, t)
         except TaskError:
             continue  # unreachable (another component) or not free for the disc
-        tasks.append(Task(len(tasks), (float(s[0]), float(s[1]), heading),
+        if geodesic_range is not None and not geodesic_range[0] <= length <= geodesic_range[1]:
+            continue
+        tasks.append(Task(first_id + len(tasks), (float(s[0]), float(s[1]), heading),
                           (float(t[0]), float(t[1])), float(length)))
+    return tasks
+
+
+def sample_tasks_by_difficulty(level, count: int, seed: int, difficulties) -> list[Task]:
+    """``count`` tasks per NRNS difficulty (names of :data:`navbench.nav.presets.DIFFICULTY_BANDS`:
+    easy 1.5-3 m, medium 3-5 m, hard 5-10 m of exact geodesic start-goal distance), with the
+    constraints of :func:`sample_tasks`; difficulty ``i`` of the list draws from the stream
+    ``[seed, i]``, and the ids run on: ``0 .. count - 1`` the first difficulty, and so on."""
+    from navbench.nav.presets import DIFFICULTY_BANDS
+
+    tasks: list[Task] = []
+    for i, name in enumerate(difficulties):
+        if name not in DIFFICULTY_BANDS:
+            raise TaskError(f"unknown difficulty {name!r}; choose from {', '.join(DIFFICULTY_BANDS)}")
+        tasks += sample_tasks(level, count, [int(seed), i], geodesic_range=DIFFICULTY_BANDS[name],
+                              first_id=len(tasks), max_tries=1_000_000)
     return tasks
 
 

@@ -27,7 +27,9 @@ def _print_scores(path: Path) -> None:
     rows = list(csv.DictReader(open(path)))
     frame = pd.DataFrame(rows)
     several = len(conditions_in(frame)) > 1
-    t = Table(title="scores (95% bootstrap intervals in the report)", caption=escape(conditions_caption(frame)))
+    preset = rows[0].get("preset") or "paper" if rows else "paper"  # issue 15: the scoring preset
+    t = Table(title=f"scores, preset {escape(preset)} (95% bootstrap intervals in the report)",
+              caption=escape(conditions_caption(frame)))
     cols = [("level", "level"), ("estimator", "estimator"), ("noise", "noise"),
             *((("conditions", "conditions"),) if several else ()), ("episodes", "n"),
             ("success_rate", "success"), ("spl", "SPL"), ("loc_rmse_m", "loc RMSE m"),
@@ -49,7 +51,7 @@ def _print_scores(path: Path) -> None:
     console.print(t)
 
 
-def _print_claim(path: Path) -> None:
+def _print_claim(path: Path, preset: str = "paper") -> None:
     """The paired differences the score stage stored (``ours`` minus each ablation), if any."""
     import pandas as pd
     from rich.markup import escape
@@ -61,7 +63,7 @@ def _print_claim(path: Path) -> None:
     except (FileNotFoundError, pd.errors.EmptyDataError):
         return
     if not paired.empty:
-        console.print(_paired_table(paired, escape))
+        console.print(_paired_table(paired, escape, preset))
 
 
 def register(app: typer.Typer) -> None:
@@ -104,7 +106,7 @@ def register(app: typer.Typer) -> None:
                                                     address=address, progress=ui, report_dir=report_dir,
                                                     command=command_line(), ref_name="all"))
         _print_scores(result.score.path)
-        _print_claim(result.score.path.parent / PAIRED_FILE)
+        _print_claim(result.score.path.parent / PAIRED_FILE, result.profile.scoring_preset)
         from navbench.pipeline.breakdown import format_breakdown
 
         console.print(f"where the time went (run {result.run_id}; stored in the database's run_timings):",

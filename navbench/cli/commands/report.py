@@ -19,6 +19,8 @@ def report(
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     trajectories: int = typer.Option(3, "--trajectories", min=0, max=1000, help="Trajectories drawn per level."),
     run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), or 'all'."),
+    preset: str = typer.Option("paper", "--preset", help="Scoring preset: paper, nrns or habitat "
+                               "(navbench score --help)."),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
@@ -30,13 +32,16 @@ def report(
     from navbench.pipeline.db import ResultsDB
     from navbench.pipeline.report import build_report, store_loaders
 
+    from navbench.nav.presets import get_preset
+
+    get_preset(preset, "--preset")
     # the report's files are written in place: only into a new, empty or earlier report folder
     check_report_dir(out, "--out", protected_paths(db, cache, levels))
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
         index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
-                             run=run)
+                             run=run, preset=preset)
     mark_report_dir(index.parent)
     console.print(f"report written to {escape(str(index))}")
 

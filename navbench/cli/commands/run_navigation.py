@@ -27,6 +27,9 @@ def register(app: typer.Typer) -> None:
         map_source: str = typer.Option(None, "--map", help="fit (the fitted world model), true "
                                        "(the voxelized true geometry) or a map file (.npz; {level} "
                                        f"stands for the level's name) {profile_default('map_source')}."),
+        goal: str = typer.Option(None, "--goal", help="point (the task's coordinates) or image (the "
+                                 "goal image, localised in the map the agent plans on) "
+                                 f"{profile_default('goal')}."),
         chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
                                   f"{default('up to 8, a quarter of the work per worker')}."),
         condition: list[str] = typer.Option(None, "--condition", metavar="NAME=VALUE", help="A simulator "
@@ -54,7 +57,7 @@ def register(app: typer.Typer) -> None:
         prof = override(load_profile(profile), levels=levels or None,
                         estimators=None if estimators is None else parse_list(estimators),
                         noise=None if noise is None else parse_list(noise),
-                        tasks=tasks, seeds=seeds, workers=workers, map_source=map_source)
+                        tasks=tasks, seeds=seeds, workers=workers, map_source=map_source, goal=goal)
         if condition:
             chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
             prof = override(prof, episode={**prof.episode, **chosen})

@@ -33,6 +33,11 @@ def score(
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
+    preset: str = typer.Option("paper", "--preset", help="Scoring preset: paper (within 2 L, no stop), "
+                               "nrns (stopped within 1 m, 500 steps) or habitat (stopped within 0.2 m "
+                               "geodesic, 500 steps)."),
+    by_difficulty: bool = typer.Option(False, "--by-difficulty", help="Also print success, SPL, SoftSPL "
+                                       "and final distance by NRNS difficulty and goal."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                            help=DB_HELP),
 ):
@@ -42,8 +47,9 @@ def score(
     differences ours - no-map and ours - dynamics on the same tasks and seeds. Success: exact
     (Clopper-Pearson) interval; SPL and differences: BCa bootstrap stratified by level. Every
     stored episode counts once per setup, task and seed; --run narrows to one run. --format json
-    prints {"scores": [...], "paired_differences": [...]}; csv prints the score table; markdown
-    prints the pooled SPL and success tables beside the paper's (the README's results table).
+    prints {"scores": [...], "paired_differences": [...]} (and "by_difficulty" with
+    --by-difficulty); csv prints the score table; markdown prints the pooled SPL and success
+    tables beside the paper's (the README's results table). Every table names its --preset.
     """
     import sys
 
@@ -51,18 +57,32 @@ def score(
 
     from navbench.pipeline.db import ResultsDB
     from navbench.cli._common import err_console
-    from navbench.pipeline.score import (conditions_in, mixed_setups_warning, score_tables, short_conditions,
-                                         table_records)
+    from navbench.nav.presets import get_preset
+    from navbench.pipeline.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
+                                         select_episodes, short_conditions, table_records)
+    from navbench.pipeline.score_presets import apply_preset, missing_distances
 
+    get_preset(preset, "--preset")  # before opening the database
     with ResultsDB(db, create=False) as rdb:
-        table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed)
+        table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed,
+                                     preset=preset)
+        frame = select_episodes(rdb, run=run, level=parse_list(level) or None)
     warning = mixed_setups_warning(table)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", markup=True)
+    missing = missing_distances(frame)
+    if missing and preset != "paper":
+        err_console.print(f"[yellow]warning:[/] {missing} episode(s) were stored without their final "
+                          f"distance (before scoring presets); under --preset {escape(preset)} they "
+                          "count as failures", markup=True)
+    by_diff = difficulty_table(apply_preset(frame, preset)) if by_difficulty else None
     if fmt is Format.json:
         from navbench.cli._common import print_json
 
-        print_json({"scores": table_records(table), "paired_differences": table_records(paired)})
+        doc = {"scores": table_records(table), "paired_differences": table_records(paired)}
+        if by_diff is not None:
+            doc["by_difficulty"] = table_records(by_diff)
+        print_json(doc)
         return
     if fmt is Format.csv:
         table.to_csv(sys.stdout, index=False, float_format="%.6g")
@@ -75,14 +95,16 @@ def score(
     from rich.table import Table
 
     # level, estimator and noise names come from the database: printed literally, never as markup
-    out = Table(title=f"navbench score ({escape(run)}): mean or median [95% interval: success exact "
-                      "binomial, SPL bootstrap stratified by level, medians bootstrap]",
+    out = Table(title=f"navbench score ({escape(run)}), preset {escape(preset)}: mean or median [95% "
+                      "interval: success exact binomial, SPL bootstrap stratified by level, medians bootstrap]",
                 caption=escape(conditions_caption(table)))
+    goals = bool((table["goal"] != "point").any())  # a goal column only where image goals are stored
     several = len(conditions_in(table)) > 1
-    for col, just in (("level", "left"), ("estimator", "left"), ("noise", "left"),
-                      *((("conditions", "left"),) if several else ()), ("n", "right"),
-                      ("success", "right"), ("SPL", "right"), ("loc RMSE m", "right"),
-                      ("rot RMSE deg", "right"), ("step ms", "right"), ("Hz", "right")):
+    cols = [("level", "left"), ("estimator", "left"), ("noise", "left")] + ([("goal", "left")] if goals else []) \
+        + ([("conditions", "left")] if several else []) \
+        + [("n", "right"), ("success", "right"), ("SPL", "right"), ("loc RMSE m", "right"),
+           ("rot RMSE deg", "right"), ("step ms", "right"), ("Hz", "right")]
+    for col, just in cols:
         out.add_column(col, justify=just)
     previous = None
     for _, r in table.iterrows():
@@ -92,6 +114,7 @@ def score(
         hz = "-" if r["step_hz"] != r["step_hz"] else f"{r['step_hz']:.1f}"
         idle = not bool(r.get("tracking_work", True))  # dynamics, gt: no tracking rate to show
         out.add_row(escape(str(r["level"])), escape(str(r["estimator"])), escape(str(r["noise"])),
+                    *((escape(str(r["goal"])),) if goals else ()),
                     *((escape(short_conditions(r["conditions"])),) if several else ()),
                     str(r["episodes"]),
                     _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
@@ -101,7 +124,9 @@ def score(
                     "-" if idle else _fmt(r["step_ms"], r["step_ms_ci_low"], r["step_ms_ci_high"], 1), hz)
     console.print(out)
     if not paired.empty:
-        console.print(_paired_table(paired, escape))
+        console.print(_paired_table(paired, escape, preset))
+    if by_diff is not None:
+        console.print(_difficulty_table(by_diff, escape, preset))
 
 
 def conditions_caption(table) -> str:
@@ -115,15 +140,33 @@ def conditions_caption(table) -> str:
             "at their default): " + " | ".join(found)) if found else ""
 
 
-def _paired_table(paired, escape):
+def _difficulty_table(by_diff, escape, preset: str):
+    """Issue 15: success, SPL, SoftSPL and final distance by goal kind and NRNS difficulty."""
+    from rich.table import Table
+
+    out = Table(title=f"by NRNS difficulty (geodesic easy 1.5-3 m, medium 3-5 m, hard 5-10 m), preset "
+                      f"{escape(preset)}: success [95% exact interval], means")
+    for col in ("level", "estimator", "noise", "goal", "difficulty", "n", "success", "SPL", "SoftSPL",
+                "final d m"):
+        out.add_column(col, justify="right" if col in ("n", "success", "SPL", "SoftSPL", "final d m") else "left")
+    for _, r in by_diff.iterrows():
+        out.add_row(*(escape(str(r[c])) for c in ("level", "estimator", "noise", "goal", "difficulty")),
+                    str(r["episodes"]),
+                    _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
+                    f"{r['spl']:.2f}", "-" if r["soft_spl"] != r["soft_spl"] else f"{r['soft_spl']:.2f}",
+                    "-" if r["final_dist_m"] != r["final_dist_m"] else f"{r['final_dist_m']:.2f}")
+    return out
+
+
+def _paired_table(paired, escape, preset: str = "paper"):
     """The paper's claim: reference - other on the same tasks and seeds, one section per noise
     (and per conditions, when the table holds several)."""
     from rich.table import Table
 
     from navbench.pipeline.score import NOISE_ORDER, _order_key, conditions_in, short_conditions
 
-    out = Table(title="paired differences on the same (task, seed): mean [95% bootstrap interval, "
-                      "stratified by level]", caption=escape(conditions_caption(paired)))
+    out = Table(title=f"paired differences on the same (task, seed), preset {escape(preset)}: mean "
+                      "[95% bootstrap interval, stratified by level]", caption=escape(conditions_caption(paired)))
     found = conditions_in(paired) or [None]
     several = len(found) > 1
     for col, just in (("noise", "left"), *((("conditions", "left"),) if several else ()),

@@ -113,6 +113,11 @@ def episode_row_from_score(cell_key: str, meta: dict, score: Any, traj_key: str 
     }
     if meta.get("condition_key") is not None:
         row["condition_key"] = str(meta["condition_key"])
+    for name in ("final_dist_m", "final_geo_m"):  # issue 15 (EpisodeScore fields, NaN -> NULL)
+        row[name] = _clean(float(getattr(score, name, float("nan"))))
+    for name in ("goal", "goal_status", "goal_err_m", "goal_confidence", "goal_heading"):  # image goals
+        if meta.get(name) is not None:
+            row[name] = _clean(meta[name])
     for name, column in zip(TIMING_KEYS, TIMING_COLUMNS):
         row[column] = _median(timings[name]) if name in timings else None
     arrays = [np.asarray(v, dtype=float).ravel() for v in timings.values()]

@@ -73,6 +73,10 @@ class Run(Base):
 _ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"),
                   # issue 16: the cell without task set and estimator (a larger --tasks extends it)
                   ("episodes", "condition_key"),
+                  # issue 15: the scoring presets' final distances, image goals' localisation
+                  ("episodes", "final_dist_m"), ("episodes", "final_geo_m"), ("episodes", "goal"),
+                  ("episodes", "goal_status"), ("episodes", "goal_err_m"),
+                  ("episodes", "goal_confidence"), ("episodes", "goal_heading"),
                   # issue 14: raw odometry and the kidnapped-robot test of a tracking row
                   ("tracking", "raw_odom_ate_m"), ("tracking", "kidnaps"),
                   ("tracking", "kidnaps_detected"), ("tracking", "kidnaps_recovered"),
@@ -168,6 +172,17 @@ class EpisodeRow(Base):
     # counts a (task, seed) once per (condition, estimator) whatever task set it came from,
     # and pairs estimators on the same (condition, task, seed).
     condition_key: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    # added within schema version 1 (issue 15; NULL in rows stored before): the final true
+    # position's Euclidean and geodesic distance to the target (m, navbench.nav.presets); the
+    # goal kind (NULL: a point goal) and, for image goals, the goal localisation: ok /
+    # ambiguous / failed, its error (m, localised vs true target) and confidence
+    final_dist_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    final_geo_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    goal: Mapped[str | None] = mapped_column(String(16), nullable=True)
+    goal_status: Mapped[str | None] = mapped_column(String(16), nullable=True)
+    goal_err_m: Mapped[float | None] = mapped_column(Float, nullable=True)
+    goal_confidence: Mapped[float | None] = mapped_column(Float, nullable=True)
+    goal_heading: Mapped[float | None] = mapped_column(Float, nullable=True)  # rad, of the goal image
 
 
 class TrackingRow(Base):
@@ -224,7 +239,8 @@ _EPISODE_FIELDS = (
     "cell_key", "level", "map_key", "task_set_key", "task_id", "estimator", "estimator_options",
     "noise", "seed", "success", "spl_term", "path_length", "optimal_length", "steps", "end_reason",
     "collided", "loc_rmse_m", "rot_rmse_deg", *TIMING_COLUMNS, "step_ms", "traj_key",
-    "condition_key",
+    "condition_key", "final_dist_m", "final_geo_m", "goal", "goal_status", "goal_err_m",
+    "goal_confidence", "goal_heading",
 )
 _EPISODE_REQUIRED = (
     "cell_key", "level", "task_id", "estimator", "noise", "seed", "success", "spl_term",

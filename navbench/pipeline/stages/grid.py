@@ -31,6 +31,10 @@ class NavigationConfig:
     episode: dict = field(default_factory=dict)
     estimator_options: dict = field(default_factory=dict)
     slice_mode: str = "band"
+    # issue 15: "point" (the task's coordinates) or "image" (the goal image localised in the map,
+    # navbench.pipeline.stages.goals); an ImageGoalConfig for "image" (None: its defaults)
+    goal: str = "point"
+    image_goal: object = None
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,7 @@ class ChunkSpec:
     camera: str
     slice_mode: str
     jobs: tuple[EpisodeJob, ...]
+    goals_path: str = ""  # image goals: the image-goals artifact (the targets the agent found)
 
 
 def build_episode_config(overrides: dict):
@@ -111,19 +116,32 @@ def resolved_episode_config(cfg: NavigationConfig) -> dict:
     return {"camera": cfg.camera, "slice_mode": cfg.slice_mode, **episode}
 
 
+def goal_key_part(cfg: NavigationConfig) -> dict:
+    """What the goal adds to the cell and condition keys: nothing for point goals (so their keys
+    stay those stored before image goals existed), else ``{"goal": {"kind": ..., config}}``."""
+    if cfg.goal == "point":
+        return {}
+    if cfg.goal != "image":
+        raise ConfigError(f"--goal: expected point or image, got {cfg.goal!r}")
+    from navbench.pipeline.stages.goals import ImageGoalConfig
+
+    return {"goal": {"kind": "image", **to_jsonable(cfg.image_goal or ImageGoalConfig())}}
+
+
 def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
     """All cells of the grid, in (level, noise, estimator) order."""
     episode = resolved_episode_config(cfg)
+    goal = goal_key_part(cfg)
     cells = []
     for li in inputs:
         for noise in cfg.noise:
             condition = config_hash({"level": li.level.key, "map_key": li.map.key, "noise": noise,
-                                     "episode": episode})
+                                     "episode": episode, **goal})
             for est in cfg.estimators:
                 options = dict(cfg.estimator_options.get(est, {}))
                 key = config_hash({"level": li.level.key, "map_key": li.map.key, "task_set_key": li.tasks.key,
                                    "estimator": est, "estimator_options": options, "noise": noise,
-                                   "episode": episode})
+                                   "episode": episode, **goal})
                 cells.append(Cell(li.level.name, li.level.key, li.map.key, li.tasks.key, est, options,
                                   noise, dict(cfg.episode), key, condition))
     return cells
@@ -180,7 +198,9 @@ def chunk_jobs(inputs: list[LevelInputs], cfg: NavigationConfig, jobs: list[Epis
     for lk, js in groups.items():
         li = by_level[lk]
         for i in range(0, len(js), chunk_size):
+            goals = getattr(li, "goals", None)
             specs.append(ChunkSpec(str(Path(li.level.path).resolve()), str(Path(li.map.path).resolve()),
                                    str(Path(li.tasks.path).resolve()), cfg.camera, cfg.slice_mode,
-                                   tuple(js[i:i + chunk_size])))
+                                   tuple(js[i:i + chunk_size]),
+                                   str(Path(goals.path).resolve()) if goals is not None else ""))
     return specs

@@ -23,6 +23,7 @@ class LevelInputs:
     level: Ref
     map: Ref
     tasks: Ref
+    goals: Ref | None = None  # image goals: the image-goals artifact (stages.goals)
 
 
 def build_level_inputs(ctx: StageContext, profile, level_name: str,
@@ -39,13 +40,28 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
     level = make_level_stage(ctx, LevelConfig(level_name, profile.level_seed))
     if source == "true":
         return LevelInputs(level, true_map_stage(ctx, level),
-                           sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed)))
+                           sample_tasks_stage(ctx, level, tasks_config(profile)))
     if source != "fit":
         return LevelInputs(level, map_file_stage(ctx, level, source),
-                           sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed)))
+                           sample_tasks_stage(ctx, level, tasks_config(profile)))
     vmap = fit_map_for_profile(ctx, profile, level, views_key)
-    tasks = sample_tasks_stage(ctx, level, TasksConfig(profile.tasks, profile.tasks_seed))
+    tasks = sample_tasks_stage(ctx, level, tasks_config(profile))
     return LevelInputs(level, vmap, tasks)
+
+
+def tasks_config(profile) -> TasksConfig:
+    """The profile's sample-tasks config (``[tasks]`` count, seed and difficulty)."""
+    return TasksConfig(profile.tasks, profile.tasks_seed, tuple(getattr(profile, "tasks_difficulty", ())))
+
+
+def with_image_goals(ctx: StageContext, inputs: LevelInputs, cfg) -> LevelInputs:
+    """``inputs`` with their image-goals artifact (goals localised in the level's map; ``cfg`` an
+    :class:`~navbench.pipeline.stages.goals.ImageGoalConfig`)."""
+    import dataclasses
+
+    from navbench.pipeline.stages.goals import image_goals_stage
+
+    return dataclasses.replace(inputs, goals=image_goals_stage(ctx, inputs.level, inputs.map, inputs.tasks, cfg))
 
 
 def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:

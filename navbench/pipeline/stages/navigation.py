@@ -41,8 +41,9 @@ class NavigationSummary:
     workers: int = 1              # (set by pipeline.run.navigate)
 
 
-def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str) -> dict:
+def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str, goals: dict | None = None) -> dict:
     from navbench.pipeline.db import episode_row_from_score
+    from navbench.pipeline.stages.goals import goal_row_fields
 
     c = job.cell
     meta = {"level": c.level, "map_key": c.map_key, "task_set_key": c.tasks_key,
@@ -50,6 +51,8 @@ def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str) -> dict:
             "seed": job.seed, "task_id": job.task_id,
             "timings_ms": record.timings_ms or {}, "end_reason": record.end_reason,
             "collided": record.collided, "condition_key": c.condition_key or None}
+    if goals is not None:  # image goals: {level key: {task id: goal record}}
+        meta.update(goal_row_fields(goals[c.level_key][job.task_id]))
     return episode_row_from_score(c.key, meta, score, traj_key)
 
 
@@ -119,6 +122,22 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
                 "simulating them again to restore it (their rows are kept)")
     if on_total:
         on_total(len(todo) + len(restore))
+    goals = None
+    if any(li.goals is not None for li in inputs):
+        from navbench.pipeline.stages.goals import load_goals
+
+        goals = {li.level.key: load_goals(li.goals.path) for li in inputs if li.goals is not None}
+    geodesics: dict[str, Any] = {}
+
+    def geodesic(job: EpisodeJob):  # the final geodesic distance on the job's true level
+        if job.cell.level_key not in geodesics:
+            from navbench.nav.metrics import FinalGeodesic
+            from navbench.pipeline.stages.level import load_level_ref
+
+            li = next(li for li in inputs if li.level.key == job.cell.level_key)
+            geodesics[job.cell.level_key] = FinalGeodesic(load_level_ref(li.level))
+        return geodesics[job.cell.level_key]
+
     # trajectories stored by an interrupted run: score them, no simulation
     rerun, rows = [], []
     for j in todo:
@@ -128,7 +147,7 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
             rerun.append(j)
             continue
         record = load_record(p / TRAJ_FILE)
-        rows.append(_row(j, record, score_episode(record), key))
+        rows.append(_row(j, record, score_episode(record, geodesic=geodesic(j)), key, goals))
         ctx.used.append(("episode", key))
     if rows:
         new = ctx.db.add_episodes(run_id, rows)
@@ -186,7 +205,7 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
                             f"seed {job.seed} simulated again does not reproduce its stored score "
                             f"({', '.join(differs)}); the stored row is kept")
                 continue
-            batch.append(_row(job, record, score, key))
+            batch.append(_row(job, record, score, key, goals))
         new = ctx.db.add_episodes(run_id, batch) if batch else 0
         summary.stored += new
         summary.already_done += len(batch) - new

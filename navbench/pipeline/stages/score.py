@@ -6,6 +6,8 @@ from pathlib import Path
 
 from navbench.config import config_hash
 from navbench.pipeline.artifacts import PAIRED_FILE, SCORE_FILE
+
+DIFFICULTY_FILE = "by_difficulty.csv"  # beside score.csv: issue 15's table by NRNS difficulty
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.grid import Cell
 
@@ -16,22 +18,28 @@ def episodes_state_key(ctx: StageContext, cells: list[Cell]) -> str:
     return config_hash({"cells": sorted(c.key for c in cells), "episodes": [list(t) for t in done]})
 
 
-def score_stage(ctx: StageContext, cells: list[Cell]) -> Ref:
+def score_stage(ctx: StageContext, cells: list[Cell], preset: str = "paper") -> Ref:
     """The score table of exactly these cells (:func:`navbench.pipeline.score.select_episodes`
     restricted to the cells' keys, then :func:`~navbench.pipeline.score.summarise`), cached by
     the set of stored episodes; the artifact is ``score.csv`` and, beside it,
     ``paired_differences.csv`` (:func:`~navbench.pipeline.score.paired_differences`: the paper's
-    claim, ``ours`` minus each ablation on the same tasks and seeds)."""
+    claim, ``ours`` minus each ablation on the same tasks and seeds), and
+    ``by_difficulty.csv`` (:func:`~navbench.pipeline.score.difficulty_table`), all under
+    the scoring ``preset`` (:mod:`navbench.nav.presets`; part of the key unless ``paper``)."""
     state = episodes_state_key(ctx, cells)
     levels = sorted({c.level for c in cells})
 
     def compute(d: Path) -> None:
         from navbench.pipeline.score import paired_differences, select_episodes, summarise
+        from navbench.pipeline.score import difficulty_table
+        from navbench.pipeline.score_presets import apply_preset
 
-        frame = select_episodes(ctx.db, level=levels, cell_keys=cell_keys)
+        frame = apply_preset(select_episodes(ctx.db, level=levels, cell_keys=cell_keys), preset)
         summarise(frame).to_csv(d / SCORE_FILE, index=False)
         paired_differences(frame).to_csv(d / PAIRED_FILE, index=False)
+        difficulty_table(frame).to_csv(d / DIFFICULTY_FILE, index=False)
 
     cell_keys = sorted(c.key for c in cells)
-    path, key, cached = ctx.run("score", {"levels": levels}, {"episodes": state}, compute)
+    config = {"levels": levels} if preset == "paper" else {"levels": levels, "preset": preset}
+    path, key, cached = ctx.run("score", config, {"episodes": state}, compute)
     return Ref("score", key, path / SCORE_FILE, cached)

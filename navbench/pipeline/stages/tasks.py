@@ -19,10 +19,25 @@ class TasksConfig:
 
     count: int = 30
     seed: int = 0
+    # issue 15: NRNS difficulties ("easy", "medium", "hard"): ``count`` tasks of each, by exact
+    # geodesic distance (navbench.plan.tasks.sample_tasks_by_difficulty); () = any distance,
+    # and then left out of the key (task sets sampled before keep theirs)
+    difficulty: tuple[str, ...] = ()
 
     def __post_init__(self):
         if self.count < 1:
             raise ConfigError(f"task count must be >= 1, got {self.count}")
+        from navbench.nav.presets import DIFFICULTY_BANDS
+
+        bad = [d for d in self.difficulty if d not in DIFFICULTY_BANDS]
+        if bad or len(set(self.difficulty)) != len(self.difficulty):
+            raise ConfigError(f"[tasks] difficulty: expected distinct names of {', '.join(DIFFICULTY_BANDS)}, "
+                              f"got {list(self.difficulty)}")
+
+    def key_config(self) -> dict:
+        """The config as hashed into the sample-tasks key (``difficulty`` only when given)."""
+        d = {"count": self.count, "seed": self.seed}
+        return {**d, "difficulty": list(self.difficulty)} if self.difficulty else d
 
 
 def committed_task_file(tasks_dir: Path, level: Ref, cfg: TasksConfig, prefix_ok: bool = False) -> Path | None:
@@ -61,7 +76,8 @@ def sample_tasks_stage(ctx: StageContext, level: Ref, cfg: TasksConfig) -> Ref:
     """The level's task set: a matching committed task file, else the first ``count`` tasks of a
     larger committed set of the same seed, else sampled; the last two are cached. The key is the
     sha256 of the task file text, so all three give the same key for the same tasks."""
-    committed = committed_task_file(ctx.tasks_dir, level, cfg)
+    # a committed file holds tasks of any distance: never the tasks of a difficulty
+    committed = None if cfg.difficulty else committed_task_file(ctx.tasks_dir, level, cfg)
     if committed is not None:
         path, cached = committed, True
         ctx.log(f"sample-tasks: {level.name} from {committed}")
@@ -69,15 +85,19 @@ def sample_tasks_stage(ctx: StageContext, level: Ref, cfg: TasksConfig) -> Ref:
         def compute(d: Path) -> None:
             from navbench.plan.tasks import load_tasks, sample_tasks, save_tasks
 
-            larger = committed_task_file(ctx.tasks_dir, level, cfg, prefix_ok=True)
-            if larger is not None:
+            larger = None if cfg.difficulty else committed_task_file(ctx.tasks_dir, level, cfg, prefix_ok=True)
+            if cfg.difficulty:
+                from navbench.plan.tasks import sample_tasks_by_difficulty
+
+                tasks = sample_tasks_by_difficulty(load_level_ref(level), cfg.count, cfg.seed, cfg.difficulty)
+            elif larger is not None:
                 ctx.log(f"sample-tasks: {level.name}: the first {cfg.count} tasks of {larger}")
                 tasks = load_tasks(larger)[:cfg.count]
             else:
                 tasks = sample_tasks(load_level_ref(level), cfg.count, cfg.seed)
             save_tasks(d / TASKS_FILE, level.name, tasks, level_hash=level.key, seed=cfg.seed)
 
-        adir, _, cached = ctx.run("sample-tasks", cfg, {"level": level.key}, compute)
+        adir, _, cached = ctx.run("sample-tasks", cfg.key_config(), {"level": level.key}, compute)
         path = adir / TASKS_FILE
     key = _sha256_text(path)
 

@@ -1,0 +1,74 @@
+"""The report's goals section (issue 15): scores under the chosen preset by NRNS difficulty and
+goal kind, and how the image goals were localised."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from navbench.nav.presets import PRESETS
+
+
+#: Goal images drawn per level in the report.
+GOAL_IMAGES_PER_LEVEL = 4
+
+
+def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=None) -> None:
+    """Scores by difficulty and goal (:func:`navbench.pipeline.score.difficulty_table`)
+    and, where image goals were run, the goal-localisation outcomes per level and the first
+    goal images of each level (rendered again from the level file in ``levels_dir``, the task's
+    target in ``tasks`` (the database's tasks frame) and the stored heading: byte for byte the
+    image the agent was given, at the ``half`` camera)."""
+    from navbench.pipeline.score import difficulty_table
+
+    page.h2("Goals and difficulty (scoring preset)", "goals")
+    if episodes is None or episodes.empty:
+        page.note("No navigation episodes stored yet.")
+        return
+    name = episodes.attrs.get("preset", "paper")
+    page.p(f"Scoring preset '{name}': {PRESETS[name].description}. SoftSPL: habitat-lab's "
+           "max(0, 1 - d_T / d_0) * d_0 / max(p, d_0) with the final geodesic distance d_T; final "
+           "distance: the preset's d_T (mean, m). Difficulty: NRNS bands of the exact geodesic "
+           "start-goal distance (easy 1.5-3 m, medium 3-5 m, hard 5-10 m; 'other' outside them).")
+    page.table(difficulty_table(episodes), "by_difficulty",
+               f"Success rate [95% exact interval], SPL, SoftSPL and final distance by goal and "
+               f"difficulty, scored under the '{name}' preset", digits=3)
+    if "goal_status" not in episodes.columns or episodes["goal"].eq("image").sum() == 0:
+        return
+    img = episodes[episodes["goal"] == "image"]
+    counts = (img.groupby(["level", "goal_status"]).size().unstack(fill_value=0)
+              .reindex(columns=["ok", "ambiguous", "failed"], fill_value=0))
+    counts["median error (m)"] = img.groupby("level")["goal_err_m"].median()
+    page.table(counts, "goal_localization", "Image goals: localisation of the goal image in the "
+               "map per episode (ok / ambiguous / failed) and the median distance of the found goal "
+               "to the true one", index=True, digits=3)
+    if levels_dir is None or tasks is None or tasks.empty or "goal_heading" not in img.columns:
+        return
+    for level, g in img.dropna(subset=["goal_heading"]).groupby("level", sort=True):
+        path = Path(levels_dir) / f"{level}.json"
+        if not path.is_file():
+            continue
+        first = g.drop_duplicates(["task_set_key", "task_id"]).head(GOAL_IMAGES_PER_LEVEL)
+        page.figure(lambda fig, first=first, path=path: _draw_goals(fig, first, path, tasks),
+                    f"{level}: goal images (task, localisation status, error of the found goal)",
+                    (2.6 * len(first), 2.4))
+
+
+def _draw_goals(fig, rows, level_path: Path, tasks) -> None:
+    """Each row's goal image (its RGB) with its localisation status in the title."""
+    import numpy as np
+
+    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+    from navbench.levelio import load_level
+    from navbench.sim.camera import RaycastCamera
+
+    level = load_level(level_path)
+    cam = RaycastCamera(level, camera_by_name("half"), CAMERA_HEIGHT)
+    by_task = {(t.task_set_key, int(t.task_id)): (t.target_x, t.target_y) for t in tasks.itertuples()}
+    for i, r in enumerate(rows.itertuples()):
+        ax = fig.add_subplot(1, len(rows), i + 1)
+        x, y = by_task[(r.task_set_key, int(r.task_id))]
+        frame = cam.render(np.array([x, y, float(r.goal_heading)]))
+        ax.imshow(frame.rgb)
+        ax.set_title(f"task {int(r.task_id)}: {r.goal_status}, {r.goal_err_m:.2f} m", fontsize=8)
+        ax.set_axis_off()

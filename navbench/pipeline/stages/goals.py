@@ -1,0 +1,116 @@
+"""image-goals: every task's goal image localised in the agent's map (issue 15 §2, known map).
+
+Per level, for each task of the task set: render the goal image (:func:`navbench.nav.imagegoal.render_goal`,
+the true level seen from the target with the seeded heading), localise it in the map the agent
+plans on with the localiser of :func:`navbench.pipeline.stages.localize.load_localizer` (its
+signature bank cached as ``localize-bank``), and classify the result
+(:func:`navbench.nav.imagegoal.classify`). The artifact ``goals.json`` maps each task id to the
+goal heading, the found pose (the target the agent plans to), the confidence, the status and the
+error against the true target. It is keyed by the level, map and task-set keys and the
+:class:`ImageGoalConfig`. Localisation depends on neither estimator nor noise, so it runs once
+per task, not once per episode; workers read the found targets from the artifact.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from navbench.errors import ConfigError
+from navbench.pipeline.stages.context import Ref, StageContext
+from navbench.pipeline.stages.level import load_level_ref
+
+GOALS_FILE = "goals.json"
+GOAL_KINDS = ("point", "image")
+
+
+@dataclass(frozen=True)
+class ImageGoalConfig:
+    """Image goals: ``seed`` of the goal headings, the ``camera`` preset of the goal image (the
+    simulator's), the status rules (:class:`navbench.nav.imagegoal.GoalRules`, fields as
+    there) and ``localizer`` overrides of :class:`navbench.localize.LocalizerConfig` fields."""
+
+    seed: int = 0
+    camera: str = "half"
+    min_confidence: float = 0.8
+    ambiguity_radius: float = 1.0
+    ambiguity_margin: float = 0.02
+    localizer: dict = field(default_factory=dict)
+
+    def localizer_config(self):
+        import dataclasses
+
+        from navbench.localize import LocalizerConfig
+
+        names = {f.name for f in dataclasses.fields(LocalizerConfig)}
+        bad = sorted(set(self.localizer) - names)
+        if bad:
+            raise ConfigError(f"image goals: unknown localizer field(s) {bad}; known: {sorted(names)}")
+        return dataclasses.replace(LocalizerConfig(), k=2, **self.localizer)
+
+    def rules(self):
+        from navbench.nav.imagegoal import GoalRules
+
+        return GoalRules(self.min_confidence, self.ambiguity_radius, self.ambiguity_margin)
+
+
+class _MapHandle:
+    """The map a localiser bank is built for (``key``, ``load()``), as ``load_localizer`` wants."""
+
+    def __init__(self, ref: Ref):
+        self.key, self._path = ref.key, ref.path
+
+    def load(self):
+        from navbench.worldmodel.base import load_world_model
+
+        return load_world_model(self._path)
+
+
+def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg: ImageGoalConfig) -> Ref:
+    """Localise every task's goal image of ``tasks`` in ``vmap`` (see the module docstring);
+    the artifact ``goals.json``."""
+
+    def compute(d: Path) -> None:
+        from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+        from navbench.nav.imagegoal import classify, goal_heading, render_goal
+        from navbench.pipeline.stages.localize import load_localizer
+        from navbench.plan.tasks import load_tasks
+
+        intr = camera_by_name(cfg.camera)
+        lv = load_level_ref(level)
+        localizer, _ = load_localizer(ctx, _MapHandle(vmap), intr, CAMERA_HEIGHT, cfg.localizer_config(),
+                                      level=level)
+        task_list = load_tasks(tasks.path)
+        update = ctx.progress(f"image goals {level.name}", len(task_list))
+        out = {}
+        for i, t in enumerate(task_list):
+            frame = render_goal(lv, t, intr, cfg.seed)
+            loc = classify(localizer.localize(frame, k=2), t.target, cfg.rules())
+            out[str(t.id)] = {"heading": goal_heading(cfg.seed, t.id), "pose": loc.pose,
+                              "status": loc.status, "confidence": _num(loc.confidence),
+                              "error_m": _num(loc.error_m),
+                              "ms": float(localizer.last_timing.get("total", 0.0))}
+            update(i + 1)
+        (d / GOALS_FILE).write_text(json.dumps(out, indent=1, sort_keys=True))
+
+    inputs = {"level": level.key, "map": vmap.key, "tasks": tasks.key}
+    path, key, cached = ctx.run("image-goals", cfg, inputs, compute)
+    return Ref("image-goals", key, path / GOALS_FILE, cached, level.name)
+
+
+def _num(x: float) -> float | None:
+    return None if x != x else float(x)
+
+
+def load_goals(path) -> dict[int, dict]:
+    """``{task id: goal record}`` of a ``goals.json`` artifact."""
+    return {int(k): v for k, v in json.loads(Path(path).read_text()).items()}
+
+
+def goal_row_fields(goal: dict | None) -> dict:
+    """The ``episodes`` columns of an image-goal episode (``{}`` for a point goal)."""
+    if goal is None:
+        return {}
+    return {"goal": "image", "goal_status": goal["status"], "goal_err_m": goal["error_m"],
+            "goal_confidence": goal["confidence"], "goal_heading": goal["heading"]}
