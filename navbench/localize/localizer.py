@@ -88,6 +88,7 @@ class LocalizerConfig:
     refine_rounds: int = 2         # render + Gauss-Newton rounds per candidate
     screen_margin: float = 0.3     # > 0: a candidate whose score at its coarse pose is more than
     #                                this below the best refined score is not aligned (screened out)
+    screen_loose: float = 1.0      # ... its score taken with the inlier tolerances times this
     refine_stride: int = 2         # refine and verify on every n-th pixel (renders n^2 cheaper)
     gn_pixels: int = 800
     inlier_abs: float = 0.05       # m: depth agreement tolerance abs + rel * depth
@@ -254,7 +255,7 @@ class Localizer:
             pred = self._renderer.render(pose)
             conf, score = self._verify(frame, pred)
             if best is None:
-                if score < floor:
+                if floor > -np.inf and self._verify(frame, pred, cfg.screen_loose)[1] < floor:
                     return Hypothesis(pose.copy(), score, conf)
                 best = (conf, score, pose)
             elif score > best[1]:
@@ -273,12 +274,13 @@ class Localizer:
         pose[2] = float(wrap_angle(pose[2]))
         return Hypothesis(pose, score, conf)
 
-    def _verify(self, frame: Frame, pred: Frame) -> tuple[float, float]:
+    def _verify(self, frame: Frame, pred: Frame, loose: float = 1.0) -> tuple[float, float]:
         """``(confidence, score)`` of the query ``frame`` against the map's render ``pred`` at a
         pose, on the sampled pixels. ``confidence``: the share of inliers among the valid query
         pixels (:func:`one_sided_confidence` with weights 1: what ``accept`` tests); ``score``:
         the change-tolerant share (``front_weight``, ``beyond_weight``) minus the inliers' mean
-        colour difference (equally consistent poses rank by photometric fit)."""
+        colour difference (equally consistent poses rank by photometric fit). ``loose``
+        scales the tolerances (screening: a coarse pose is up to ~9 cm and 1 degree off)."""
         cfg = self.config
         dq = np.asarray(frame.depth).reshape(-1)[self._idx]
         vq = np.asarray(frame.valid).reshape(-1)[self._idx]
@@ -286,8 +288,9 @@ class Localizer:
         vp = np.asarray(pred.valid).reshape(-1)[self._idx]
         dc = np.abs(np.asarray(frame.rgb).reshape(-1, 3)[self._idx]
                     - np.asarray(pred.rgb).reshape(-1, 3)[self._idx]).mean(axis=1)
-        conf, robust, ok = one_sided_confidence(dq, vq, dp, vp, dc, cfg.inlier_abs, cfg.inlier_rel,
-                                                cfg.inlier_colour, cfg.front_weight, cfg.beyond_weight)
+        conf, robust, ok = one_sided_confidence(dq, vq, dp, vp, dc, loose * cfg.inlier_abs,
+                                                loose * cfg.inlier_rel, loose * cfg.inlier_colour,
+                                                cfg.front_weight, cfg.beyond_weight)
         return conf, robust - (float(dc[ok].mean()) if ok.any() else 0.0)
 
 
