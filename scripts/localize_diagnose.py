@@ -132,7 +132,7 @@ def main() -> None:
 
     total = sum(counts.values())
     print(f"{args.level}, map {args.map}, {total} queries, changes {cfg.changes}: "
-          f"recall 50 cm {100 * counts['found'] / total:.1f} %, median query {np.median(ms):.1f} ms CPU, "
+          f"recall 50 cm {100 * counts['found'] / total:.1f} %, median query {np.median(ms):.1f} ms CPU (p90 {np.percentile(ms, 90):.1f}), "
           f"refined per query median {np.median(nref):.0f} (max {max(nref)})")
     for k, v in counts.most_common():
         print(f"  {k:26s} {v:4d}")

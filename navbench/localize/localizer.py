@@ -81,14 +81,14 @@ class LocalizerConfig:
     trim: float = 0.0              # re-ranking drops this share of the window's worst columns
     k: int = 1                     # hypotheses returned by default
     max_candidates: int = 24       # at most this many candidates are refined by eq. 7 ...
-    min_candidates: int = 3        # ... at least this many ...
-    accept: float = 0.8            # ... stopping once k of them reach this confidence
+    min_candidates: int = 2        # ... at least this many ...
+    accept: float = 0.85           # ... stopping once k of them reach this confidence
     nms_radius: float = 0.5        # m: candidates closer than this (and nms_deg) are one
     nms_deg: float = 30.0
     refine_rounds: int = 2         # render + Gauss-Newton rounds per candidate
     screen_margin: float = 0.3     # > 0: a candidate whose score at its coarse pose is more than
     #                                this below the best refined score is not aligned (screened out)
-    screen_loose: float = 1.0      # ... its score taken with the inlier tolerances times this
+    screen_loose: float = 3.0      # ... its score taken with the inlier tolerances times this
     refine_stride: int = 2         # refine and verify on every n-th pixel (renders n^2 cheaper)
     gn_pixels: int = 800
     inlier_abs: float = 0.05       # m: depth agreement tolerance abs + rel * depth
@@ -185,7 +185,10 @@ class Localizer:
         small = self.strided(frame)
         hyps: list[Hypothesis] = []
         for pose in cands:  # coarse order; stop once k are verified
-            floor = max(h.score for h in hyps) - cfg.screen_margin if hyps and cfg.screen_margin > 0 else -np.inf
+            top = max(hyps, key=lambda h: h.score) if hyps else None
+            # screening only against a verified hypothesis (changed rooms verify none: all refined)
+            floor = top.score - cfg.screen_margin if top is not None and cfg.screen_margin > 0 \
+                and top.confidence >= cfg.accept else -np.inf
             hyps.append(self._refine(small, pose, floor))
             if len(hyps) >= cfg.min_candidates and \
                     len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
