@@ -11,22 +11,30 @@ Build (once per map and camera, :meth:`Localizer.build`)
 
 Query (:meth:`Localizer.localize`)
     1. the query frame's signature over its field of view (the same elevations and bins);
-    2. the squared distance to every lattice point's panorama at every circular shift by FFT
-       (:func:`navbench.localize.signature.circular_costs`): best shift = heading; the
+    2. the squared distance to every lattice point's panorama at every circular shift by FFT,
+       reduced to each point's best shift and cost in one fused pass
+       (:meth:`navbench.localize.signature.Correlator.best`): best shift = heading; the
        ``truncate_top`` best points are re-ranked by a truncated L1 distance at that shift
        (:func:`~navbench.localize.signature.truncated_costs`: changed furniture costs at most
-       ``truncate`` per bin);
+       ``truncate`` per bin; ``trim > 0`` also drops the worst columns);
     3. candidates, best first after non-maximum suppression (``nms_radius``, ``nms_deg``), are
        refined by the ``ours`` alignment (planar Gauss-Newton of eq. 7 against the map's render
-       at the candidate, ``refine_rounds`` render + align rounds, no prior to speak of) and
-       verified by their residual: ``confidence`` = fraction of the query's sampled valid pixels
+       at the candidate, ``refine_rounds`` render + align rounds, no prior to speak of; point-to-
+       plane residuals over ``geo_threshold`` are ignored: a truncated L1, so that furniture the
+       map lacks does not pull the pose) and verified at every render
+       (:func:`one_sided_confidence`): ``confidence`` = share of the query's sampled valid pixels
        whose depth (within ``inlier_abs + inlier_rel * depth``) and colour (mean RGB difference
-       within ``inlier_colour``) the map predicts at the refined pose. Refinement stops once
-       ``min_candidates`` were refined and ``k`` distinct hypotheses reach ``accept``, or after
-       ``max_candidates``.
+       within ``inlier_colour``) the map predicts; the *score* weights pixels seen in front of or
+       beyond the map's surface (what added, moved or removed furniture causes) by
+       ``front_weight`` / ``beyond_weight`` against contradictions (right depth, wrong colour:
+       walls never change), minus the inliers' mean colour difference. A refinement whose
+       rounds lower the score is undone (the best rendered pose is kept). Once a hypothesis is
+       verified (``confidence >= accept``), a later candidate whose score at its coarse pose
+       (tolerances x ``screen_loose``) is more than ``screen_margin`` below the best is not
+       aligned (screened). Refinement stops once ``min_candidates`` were tried and ``k``
+       distinct hypotheses reach ``accept``, or after ``max_candidates``.
 
-Hypotheses come back best first by ``score`` (confidence minus the inliers' mean colour
-difference, so equally consistent poses rank by photometric fit); poses refined to the same place
+Hypotheses come back best first by ``score``; poses refined to the same place
 (5 cm, 2 degrees) are reported once. An ambiguous view (a symmetric room) gives several
 hypotheses with near-equal scores: ask for ``k >= 2`` to see them.
 
@@ -41,6 +49,20 @@ Re-ranking the 1000 points of best L2 cost by the truncated L1 cost (tau 0.1) at
 shift brings the right place among the 24 first candidates for 84-92 % of OC1 queries (L2
 alone: 72 %), 76-84 % of OC3 (52 %), and changes nothing on unchanged rooms (100 %; 25-40
 queries each, tune-house).
+
+Changed rooms and speed (issue 14 follow-up; ``scripts/localize_diagnose.py`` on ``tune-house``
+only): of the OC4 failures on its true map, 12 of 22 were the wrong place out-scoring the true
+pose and 6 a refinement pulled off the true pose by the changed furniture. Most changed pixels
+at the true pose were *beyond* the map's surface (removed or moved furniture), so both depth
+signs are down-weighted (0.3), not only the in-front one. With the truncated point-to-plane
+(0.3 m), the undo and the weights, OC4 on the true map went 26.7 -> 60.0 % (30 queries), OC1
+76.7 -> 90.0 %; unchanged rooms stayed at 98-99 % (true) and 92-93 % (quick fit, 300 queries:
+the failures are near-ties of views dominated by one nearby wall). Trimming columns and higher
+elevations did not help the coarse ranking of OC4 views (the true place ranks ~1000th of ~3700:
+the signature, not the search, is the limit there). ``accept`` 0.85 with 2 candidates at least
+and screening: median query CPU ~0.85x of the former 0.8 / 3 / no screening at recall within a
+query or four in 300 (quick fit); its p90 is higher (hard views now try up to 24 candidates),
+``accept=0.8`` brings it back at ~1 % recall.
 """
 
 from __future__ import annotations
