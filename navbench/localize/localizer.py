@@ -143,7 +143,9 @@ class Bank(NamedTuple):
 class Localizer:
     """See the module docstring. ``last_timing``: the last query's component times (ms):
     ``signature``, ``correlate``, ``refine``, ``total`` (wall clock) and ``cpu`` (the process's
-    CPU time for the whole query: the wall time it would take on an idle core)."""
+    CPU time for the whole query: the wall time it would take on an idle core);
+    ``last_candidates`` and ``last_refined``: its coarse candidate poses and their refined
+    hypotheses, in coarse order (what ``scripts/localize_diagnose.py`` reads)."""
 
     def __init__(self, world_model, intrinsics: Intrinsics, camera_height: float,
                  config: LocalizerConfig, bank: Bank):
