@@ -171,6 +171,54 @@ def truncated_costs(pano, Q, shifts, tau):
     return out
 
 
+@njit(cache=True, fastmath=True)
+def _row_minima(qq, energy, corr, shift, cost):
+    """``shift[n], cost[n]``: argmin and min over ``s`` of ``qq + energy[n, s] - 2 corr[n, s]``
+    (one pass, no ``(N, bins)`` temporaries)."""
+    N, A = corr.shape
+    for n in range(N):
+        b = 0
+        m = qq + energy[n, 0] - 2.0 * corr[n, 0]
+        for s in range(1, A):
+            v = qq + energy[n, s] - 2.0 * corr[n, s]
+            if v < m:
+                m = v
+                b = s
+        shift[n] = b
+        cost[n] = m
+
+
+@njit(cache=True, fastmath=True)
+def trimmed_costs(pano, Q, shifts, tau, keep):
+    """``out (N, S)``: per column ``r`` of the window the truncated L1 ``c_r = sum_c min(|Q[c, r]
+    - pano[n, c, (shifts[n, j] + r - R) % bins]|, tau)``, summed over the ``keep`` smallest
+    ``c_r`` (the other columns, e.g. those new furniture fills, are dropped: a trimmed sum over
+    columns). ``keep >= W`` is :func:`truncated_costs`."""
+    N, C, A = pano.shape
+    S = shifts.shape[1]
+    W = Q.shape[1]
+    R = (W - 1) // 2
+    out = np.empty((N, S))
+    col = np.empty(W)
+    for n in range(N):
+        for j in range(S):
+            s0 = (shifts[n, j] - R) % A
+            for r in range(W):
+                i = s0 + r
+                if i >= A:
+                    i -= A
+                acc = 0.0
+                for c in range(C):
+                    d = abs(Q[c, r] - pano[n, c, i])
+                    acc += min(d, tau)
+                col[r] = acc
+            if keep >= W:
+                out[n, j] = col.sum()
+            else:
+                out[n, j] = np.sort(col)[:keep].sum()
+    return out
+
+
 class Correlator:
     """The FFT form of the panoramas ``pano (N, C, bins)`` for windows of ``-R .. R`` bins."""
 
@@ -200,6 +248,27 @@ class Correlator:
         _channel_products(self.Fr, self.Fi, Qr, Qi, pr, pi)
         corr = np.fft.irfft(pr + 1j * pi, n=A, axis=-1)
         return float((Q ** 2).sum()) + self.energy - 2.0 * corr
+
+    def best(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(shift (N,) int, cost (N,))``: each point's best shift and its cost, the row minima
+        of :meth:`costs` (float32 FFTs through :mod:`scipy.fft`, minima in one fused pass)."""
+        from scipy import fft as sfft
+
+        A = self.bins
+        qpad = np.zeros((Q.shape[0], A), np.float32)
+        qpad[:, np.arange(-self.R, self.R + 1) % A] = Q
+        FQ = np.conj(sfft.rfft(qpad, axis=-1))
+        Qr = np.ascontiguousarray(FQ.real, dtype=np.float32)
+        Qi = np.ascontiguousarray(FQ.imag, dtype=np.float32)
+        N, _, K = self.Fr.shape
+        prod = np.empty((N, K), np.complex64)
+        pr, pi = np.empty((N, K), np.float32), np.empty((N, K), np.float32)
+        _channel_products(self.Fr, self.Fi, Qr, Qi, pr, pi)
+        prod.real, prod.imag = pr, pi
+        corr = sfft.irfft(prod, n=A, axis=-1, workers=1)
+        shift, cost = np.empty(N, np.int64), np.empty(N, np.float64)
+        _row_minima(float((np.asarray(Q, np.float64) ** 2).sum()), self.energy, corr, shift, cost)
+        return shift, cost
 
 
 def circular_costs(pano: np.ndarray, Q: np.ndarray) -> np.ndarray:

@@ -48,3 +48,7 @@ def test_a_typod_level_is_an_error_not_a_generated_level(project, tmp_path):
         res = nb(*cmd)
         assert_clean_error(res, "tyop", "make-level")
         assert not (project / "levels" / "tyop.json").exists()
+
+
+def test_unknown_query_sampling(project):
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "--sampling", "random"), "--sampling")

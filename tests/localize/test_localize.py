@@ -63,6 +63,18 @@ def test_fft_correlation_equals_direct_sums():
     np.testing.assert_allclose(sig.circular_costs(pano, Q), sig.circular_costs_direct(pano, Q), atol=1e-4)
 
 
+def test_best_shifts_are_the_row_minima_of_the_costs():
+    """The fused float32 path (:meth:`Correlator.best`) gives each point's argmin and minimum of
+    the direct sums (up to float32 rounding; random data has no near-ties at this tolerance)."""
+    rng = np.random.default_rng(1)
+    pano = rng.random((40, 8, 192)).astype(np.float32)
+    Q = rng.random((8, 61))
+    D = sig.circular_costs_direct(pano.astype(np.float64), Q)
+    shift, cost = sig.Correlator(pano, 30).best(Q)
+    np.testing.assert_array_equal(shift, np.argmin(D, axis=1))
+    np.testing.assert_allclose(cost, D.min(axis=1), rtol=1e-4)
+
+
 def test_heading_only_change_recovered_exactly(loc):
     """A window cut from a stored panorama at shift s is found at shift s with cost 0, and a
     rendered query at a lattice point with a heading on a bin gets that bin as its coarse heading."""
@@ -80,9 +92,12 @@ def test_heading_only_change_recovered_exactly(loc):
         pose = np.array([*loc.bank.points[i], s * 2 * math.pi / bins])
         Q = sig.query_signature(cam.render(pose), HALF_CAMERA, ycs, CFG.grey_weight, bins,
                                 CFG.depth_feature, CFG.feature_range)
-        D = sig.Correlator(pano, R).costs(Q)
+        corr = sig.Correlator(pano, R)
+        D = corr.costs(Q)
         assert int(np.argmin(D[i])) == s
-        best = candidates(D, loc.bank.points, 1, CFG)[0]
+        shift, cost = corr.best(Q)
+        np.testing.assert_array_equal(shift[i], s)
+        best = candidates(shift, cost, loc.bank.points, 1, CFG)[0]
         np.testing.assert_allclose(best, [*loc.bank.points[i], float(wrap_angle(pose[2]))], atol=1e-9)
 
 

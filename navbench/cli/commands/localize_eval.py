@@ -24,6 +24,9 @@ def register(app: typer.Typer) -> None:
         changes: str = typer.Option(None, "--changes", help="Object-change difficulty OC1..OC4: "
                                     "queries rendered in a changed level (furniture added, moved, "
                                     "removed), localised in the original's map."),
+        sampling: str = typer.Option("uniform", "--sampling", help="Query poses: uniform (free "
+                                     "space, uniform headings) or trajectory (views along the "
+                                     "tracking trajectories, RNR-Map's protocol)."),
         camera: str = typer.Option("half", "--camera", help="half or paper."),
         seed: int = typer.Option(0, "--seed", min=0, help="Query (and changed-level) seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Localiser setting KEY=VALUE "
@@ -56,7 +59,7 @@ def register(app: typer.Typer) -> None:
         camera_by_name(camera)
         prof = load_profile(profile) if map_ == "fit" else None
         cfg = LocalizeEvalConfig(queries=queries, seed=seed, camera=camera, changes=changes,
-                                 localizer=_localizer_config(option)).resolved()
+                                 localizer=_localizer_config(option), sampling=sampling).resolved()
         t0 = time.perf_counter()
 
         def body(ui):
@@ -81,12 +84,14 @@ def register(app: typer.Typer) -> None:
                                       "study_key": ref.key, "bank_key": ref.meta["bank_key"],
                                       "cached": ref.cached, "bank_cached": ref.meta["bank_cached"],
                                       "camera": camera, "changes": changes, "seed": seed,
+                                      "sampling": sampling,
                                       "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}})
             return
         from rich.table import Table
 
         title = f"localisation on {level_ref.name} ({queries} queries, map {map_}, camera {camera}"
-        title += f", changes {changes})" if changes else ")"
+        title += f", changes {changes}" if changes else ""
+        title += f", {sampling} queries)"
         t = Table(title=escape(title))
         t.add_column("figure")
         t.add_column("value", justify="right")

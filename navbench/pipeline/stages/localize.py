@@ -107,12 +107,15 @@ class LocalizeEvalConfig:
     changes: str | None = None
     clearance: float = 0.1
     localizer: object = field(default=None)  # a LocalizerConfig (None: its defaults)
+    sampling: str = "uniform"  # query poses: "uniform" (free space) or "trajectory" (RNR-Map C.2)
 
     def resolved(self) -> "LocalizeEvalConfig":
         from navbench.localize import LocalizerConfig
 
         if self.changes is not None and self.changes not in OC_BANDS:
             raise ConfigError(f"--changes: expected one of {', '.join(OC_BANDS)}, got {self.changes!r}")
+        if self.sampling not in SAMPLINGS:
+            raise ConfigError(f"--sampling: expected one of {', '.join(SAMPLINGS)}, got {self.sampling!r}")
         return self if self.localizer is not None else dataclasses.replace(self, localizer=LocalizerConfig())
 
 
@@ -125,10 +128,36 @@ def image_difference(a, b) -> float:
     return float((col | (np.abs(da - db) > 0.02)).mean())
 
 
+#: ``sampling="trajectory"``: views taken per recorded trajectory, and its length in controls
+#: (RNR-Map C.2 samples 10 query images from each camera-tracking trajectory).
+VIEWS_PER_TRAJECTORY = 10
+TRAJECTORY_STEPS = 100
+SAMPLINGS = ("uniform", "trajectory")
+
+
+def trajectory_poses(level, seed: int):
+    """Endless poses of views along ``level``'s tracking trajectories (RNR-Map C.2's query
+    protocol): :func:`navbench.track.study.record_trajectories` at seed ``seed`` (the
+    trajectories ``track-eval --seed`` drives), :data:`VIEWS_PER_TRAJECTORY` distinct steps of
+    each of its :data:`TRAJECTORY_STEPS` controls drawn uniformly (stream ``[seed, 0x10CA1, 1]``),
+    trajectories driven in doubling batches."""
+    from navbench.track.study import record_trajectories
+
+    rng = np.random.default_rng([int(seed), 0x10CA1, 1])
+    done, total = 0, 8
+    while True:  # trajectory i does not depend on the count: redrive doubling batches (<= 2x work)
+        for tr in record_trajectories(level, total, TRAJECTORY_STEPS, "tracking", seed)[done:]:
+            for t in np.sort(rng.choice(np.arange(1, len(tr.true_poses)), VIEWS_PER_TRAJECTORY,
+                                        replace=False)):
+                yield np.asarray(tr.true_poses[t], np.float64)
+        done, total = total, 2 * total
+
+
 def draw_queries(level, count: int, seed: int, clearance: float, intrinsics, original=None,
-                 band: tuple[float, float] | None = None):
+                 band: tuple[float, float] | None = None, sampling: str = "uniform"):
     """Yield ``count`` ``(pose, frame, image difference)``: poses uniform in ``level``'s free
-    space, frames of the true camera; with ``original`` and ``band``, only poses whose
+    space (``sampling="uniform"``) or views along its trajectories (``"trajectory"``,
+    :func:`trajectory_poses`), frames of the true camera; with ``original`` and ``band``, only poses whose
     :func:`image_difference` to the original level's view lies in ``band`` (at most
     :data:`MAX_DRAWS_PER_QUERY` draws per query, then :class:`ConfigError`)."""
     from navbench.levelgen.validate import clearance_mask
@@ -143,10 +172,14 @@ def draw_queries(level, count: int, seed: int, clearance: float, intrinsics, ori
     cam = RaycastCamera(level, intrinsics)
     cam0 = RaycastCamera(original, intrinsics) if original is not None else None
     kept = 0
+    along = trajectory_poses(level, seed) if sampling == "trajectory" else None
     for _ in range(count * (MAX_DRAWS_PER_QUERY if band else 1)):
-        i, j = cells[rng.integers(len(cells))]
-        pose = np.array([xs[i] + rng.uniform(-res / 2, res / 2), ys[j] + rng.uniform(-res / 2, res / 2),
-                         rng.uniform(-np.pi, np.pi)])
+        if along is not None:
+            pose = next(along)
+        else:
+            i, j = cells[rng.integers(len(cells))]
+            pose = np.array([xs[i] + rng.uniform(-res / 2, res / 2), ys[j] + rng.uniform(-res / 2, res / 2),
+                             rng.uniform(-np.pi, np.pi)])
         f = cam.render(pose)
         d = image_difference(f, cam0.render(pose)) if cam0 is not None else 0.0
         if band is not None and not band[0] <= d < band[1]:
@@ -175,11 +208,11 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
 
         base = load_level_ref(level)
         if cfg.changes is None:
-            q = draw_queries(base, cfg.queries, cfg.seed, cfg.clearance, intr)
+            q = draw_queries(base, cfg.queries, cfg.seed, cfg.clearance, intr, sampling=cfg.sampling)
         else:
             changed = change_level(base, f"{base.name}-changed", CHANGE_COUNT, cfg.seed)
             q = draw_queries(changed, cfg.queries, cfg.seed, cfg.clearance, intr, base,
-                             OC_BANDS[cfg.changes])
+                             OC_BANDS[cfg.changes], cfg.sampling)
         true, est = np.zeros((cfg.queries, 3)), np.zeros((cfg.queries, 3))
         conf, ms, diff = np.zeros(cfg.queries), np.zeros(cfg.queries), np.zeros(cfg.queries)
         cpu = np.zeros(cfg.queries)
