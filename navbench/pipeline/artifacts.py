@@ -23,7 +23,8 @@ from navbench.config import to_jsonable
 #: Artifact format versions: bump one to invalidate that stage's cache.
 FORMAT = {"make-level": 1, "collect-views": 1, "fit-map": 1, "true-map": 1, "sample-tasks": 1,
           "episode": 1, "score": 3, "report": 3, "verify": 1, "track-eval": 1,
-          "import-views": 1, "localize-bank": 1, "localize-eval": 2}
+          "import-views": 1, "localize-bank": 1, "localize-eval": 2,
+          "health-calibration": 1}
 
 
 VERIFY_FILE = "verified.json"

@@ -81,7 +81,9 @@ class TrackerConfig:
     health_photo_tol: float = 0.3  # colour agreement of an inlier (L1 over RGB)
     health_band: tuple[float, float] = (0.05, 1.1)  # m, heights of the points that count
     health_pixels: int = 1000  # fixed random pixels the health test reads
-    health_min_inliers: float = 0.5
+    # a number, or "auto": the map's own threshold (navbench.track.health.HealthCalibration,
+    # calibrated on the map's views; the estimator is then given it as health_threshold=)
+    health_min_inliers: float | str = 0.5
     recover: bool = False
     relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
     relocalize_top: int = 3  # hypotheses verified per relocalisation
@@ -96,8 +98,11 @@ class TrackerConfig:
                 raise TrackingError(f"option {name} must be >= 1, got {getattr(self, name)!r}")
         if min(self.prior_sigma) <= 0 or min(self.off_plane_sigma) <= 0:
             raise TrackingError("prior sigmas must be > 0")
-        if not self.health_tol > 0 or not 0 <= self.health_min_inliers <= 1:
-            raise TrackingError("health_tol must be > 0 and health_min_inliers within [0, 1]")
+        m = self.health_min_inliers
+        if not self.health_tol > 0 or not (m == "auto" or (isinstance(m, (int, float))
+                                                          and not isinstance(m, bool) and 0 <= m <= 1)):
+            raise TrackingError(f"health_tol must be > 0 and health_min_inliers within [0, 1] or "
+                                f"'auto', got {self.health_tol!r} and {m!r}")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
 

@@ -268,8 +268,12 @@ class _PredictionToObservation:
 
     def __init__(self, vmap=None, intrinsics: Intrinsics = HALF_CAMERA,
                  camera_height: float = CAMERA_HEIGHT, renderer: Callable | None = None,
-                 seed: int = 0, relocalizer=None, **options):
+                 seed: int = 0, relocalizer=None, health_threshold: float | None = None,
+                 **options):
         self.config = make_config(options)
+        # the alarm threshold: health_min_inliers, or with health_min_inliers="auto" the map's
+        # calibrated one, given by the caller (navbench.pipeline.stages.health)
+        self.health_threshold = _health_threshold(self.config, health_threshold)
         if self.config.recover and not self.uses_map:
             raise TrackingError(f"estimator {self.name!r}: recover needs a map-based tracker")
         self._vmap = vmap
@@ -384,7 +388,7 @@ class _PredictionToObservation:
         relocaliser's build (once) and query times go to ``timing`` (ms, within "estimate")."""
         c = self.config
         f = self._inliers(ref, frame, est)
-        alarm = bool(f < c.health_min_inliers)  # nan (no evidence) is no alarm
+        alarm = bool(f < self.health_threshold)  # nan (no evidence) is no alarm
         relocalized = False
         if alarm and c.recover:
             t0 = time.perf_counter()
@@ -402,13 +406,26 @@ class _PredictionToObservation:
                                          camera_pose(pose, self.camera_height))
                 cand = align(href, frame, pose, c, self.seed, self.camera_height)
                 fc = self._inliers(href, frame, cand)
-                if fc >= c.health_min_inliers and fc > best_f:
+                if fc >= self.health_threshold and fc > best_f:
                     best, best_f = cand, fc
             if best is not None:
                 est, relocalized = best, True
             timing["relocalize"] = (time.perf_counter() - t1) * 1e3
         self.last_health = {"inliers": f, "alarm": alarm, "relocalized": relocalized}
         return est
+
+
+def _health_threshold(cfg: TrackerConfig, given: float | None) -> float:
+    """The alarm threshold of ``cfg`` (``given``: the calibrated one for ``"auto"``)."""
+    if cfg.health_min_inliers != "auto":
+        return float(cfg.health_min_inliers)
+    if given is None or not 0 <= float(given) <= 1:
+        if not (cfg.health or cfg.recover):
+            return math.nan  # never read
+        raise TrackingError("health_min_inliers='auto' needs the map's calibrated threshold "
+                            "(health_threshold=, navbench.pipeline.stages.health; track-eval "
+                            f"computes it), got {given!r}")
+    return float(given)
 
 
 class PredictionToObservationTracker(_PredictionToObservation):

@@ -177,12 +177,15 @@ def _pick_waypoint(level, wide, xy, rng, clearance, max_range, tries: int = 200)
 
 def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyConfig(),
                        trajectories: list[Trajectory] | None = None,
-                       progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                       progress: Callable[[int, int], None] | None = None,
+                       health_thresholds: dict[str, float] | None = None) -> dict[str, Any]:
     """Replay recorded trajectories through every estimator; see the module doc.
 
     ``vmap``: the map the map-based estimators use (``None`` is allowed when none of them is
     selected). ``trajectories``: pre-recorded ones (default: :func:`record_trajectories` with
     the config). ``progress(done, total)`` is called after each trajectory.
+    ``health_thresholds``: per estimator name, the map's calibrated alarm threshold for the
+    option ``health_min_inliers="auto"`` (constructor argument ``health_threshold``).
 
     Returns a dict::
 
@@ -211,8 +214,10 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     runs = []  # (name, seed, estimator)
     for name in config.estimators:
         for s in range(config.seeds):
+            extra = {"health_threshold": health_thresholds[name]} \
+                if health_thresholds and name in health_thresholds else {}
             est = make_estimator(name, vmap=vmap, intrinsics=intr, camera_height=config.camera_height,
-                                 renderer=None, seed=s, **dict(opts.get(name, {})))
+                                 renderer=None, seed=s, **extra, **dict(opts.get(name, {})))
             runs.append((name, s, est))
     if not trajectories or len({len(t.controls) for t in trajectories}) != 1:
         raise ConfigError("the trajectories must be non-empty and of equal length")

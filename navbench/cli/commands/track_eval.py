@@ -150,7 +150,8 @@ def register(app: typer.Typer) -> None:
                     "steps": steps, "seeds": seeds, "options": opts, "noise": noise,
                     "odometry": odometry, "kidnap_every": kidnap_every, "raw_odometry": raw,
                     "trajectory_limits": cfg.trajectory_limits,
-                    "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}
+                    "wall_s": round(time.perf_counter() - t0, 3), "stored": stored,
+                    "health_thresholds": ref.meta.get("health_thresholds", {})}
             print_json(_finite({**summary, "meta": meta}))
             return
         from rich.table import Table
@@ -170,6 +171,9 @@ def register(app: typer.Typer) -> None:
                       f"Raw odometry (dead reckoning of the body-frame controls): ATE median "
                       f"{raw['ate_m_median']:.4f} m, mean {raw['ate_m_mean']:.4f} m.", markup=False)
         _print_health(summary)
+        for name, th in ref.meta.get("health_thresholds", {}).items():
+            console.print(f"{name}: health_min_inliers=auto calibrated to {th:.3f} on the map's "
+                          f"views", markup=False)
         if stored:
             console.print(f"stored {stored['rows']} new tracking rows (run {stored['run_id']}, "
                           f"study {stored['study_key'][:12]}) in {stored['db']}", markup=False)
