@@ -1,0 +1,152 @@
+"""The health test's threshold per map (``health_min_inliers = "auto"``, issue 14 section 3):
+:func:`navbench.track.health.calibrated_threshold` by hand, the calibration's fractions on an
+exact and on a deliberately wrong map, the estimator's use of the threshold, and the
+health-calibration stage (held-out views of a fit-map artifact, cache, keys)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navbench.errors import TrackingError
+from navbench.geometry import HALF_CAMERA, Frame
+from navbench.track.health import HealthCalibration, calibrated_threshold, view_inlier_fractions
+
+from .synth import small_level
+
+
+@pytest.fixture(scope="module")
+def level():
+    return small_level()
+
+
+@pytest.fixture(scope="module")
+def views(level):
+    """Eight exact views of the small room at seeded free poses."""
+    from navbench.worldmodel.views import collect_views
+
+    return collect_views(level, 8, HALF_CAMERA, seed=3)
+
+
+def _frames(views):
+    from navbench.track.sequence import frame_at
+
+    return [frame_at(views, i) for i in range(len(views))]
+
+
+def test_threshold_by_hand():
+    cal = HealthCalibration(quantile=0.1, factor=0.6, clamp=(0.15, 0.5))
+    # quantile 0.1 of 0.80, 0.81, ..., 0.99 (linear interpolation): 0.80 + 0.1 * 19 * 0.01
+    f = np.linspace(0.80, 0.99, 20)
+    assert calibrated_threshold(f, cal) == pytest.approx(0.6 * 0.819)
+    # nan (no evidence) is left out; the clamp holds at both ends
+    assert calibrated_threshold(np.r_[f, np.nan, np.nan], cal) == pytest.approx(0.6 * 0.819)
+    assert calibrated_threshold(np.full(10, 0.1), cal) == 0.15
+    assert calibrated_threshold(np.full(10, 1.0), cal) == 0.5
+    assert calibrated_threshold(np.full(3, np.nan), cal) == 0.5  # no evidence: the ceiling
+    with pytest.raises(TrackingError, match="quantile"):
+        HealthCalibration(quantile=1.5)
+
+
+def test_exact_map_agrees_fully_and_a_wrong_map_lowers_the_threshold(level, views):
+    """On the exact world every evidence pixel agrees (fraction 1 at the true pose, and after
+    one tracking step from a perturbed pose nearly so). A map whose colour is wrong at a random
+    40 % of the pixels (iid) agrees on about 60 % of them: the calibrated threshold
+    follows it down (0.6 x ~0.6) instead of raising alarms at every step."""
+    from navbench.sim.camera import RaycastCamera
+    from navbench.track.eq7 import TrackerConfig
+    from navbench.track.ours import align, gn_pixels
+
+    cam = RaycastCamera(level, HALF_CAMERA)
+    idx = gn_pixels(HALF_CAMERA.height, HALF_CAMERA.width, 1000, 1)
+    frames = _frames(views)
+    exact = view_inlier_fractions(cam.render, frames, views.poses, HALF_CAMERA, idx,
+                                  HealthCalibration(perturb=(0.0, 0.0)))
+    np.testing.assert_allclose(exact, 1.0, atol=0.02)  # float32 depth at the 5 % edge only
+    stepped = view_inlier_fractions(cam.render, frames, views.poses, HALF_CAMERA, idx,
+                                    HealthCalibration(), align=align, tracker=TrackerConfig())
+    assert np.nanmin(stepped) > 0.9
+
+    bad = np.random.default_rng(0).random(HALF_CAMERA.shape) < 0.4
+
+    def wrong(pose):
+        fr = cam.render(pose)
+        rgb = fr.rgb.copy()
+        c = rgb[bad]
+        rgb[bad] = np.where(c < 0.5, c + 0.5, c - 0.5)  # L1 error 1.5 over RGB > photo_tol
+        return Frame(rgb, fr.depth, fr.valid)
+
+    f = view_inlier_fractions(wrong, frames, views.poses, HALF_CAMERA, idx,
+                              HealthCalibration(perturb=(0.0, 0.0)))
+    cal = HealthCalibration()
+    assert np.nanmax(np.abs(f - 0.6)) < 0.08  # binomial noise over hundreds of pixels
+    assert calibrated_threshold(f, cal) < calibrated_threshold(exact, cal) - 0.1
+    assert calibrated_threshold(exact, cal) == cal.clamp[1]
+
+
+def test_auto_threshold_is_given_to_the_estimator(level):
+    from navbench.sim.camera import RaycastCamera
+    from navbench.track.registry import make_estimator
+
+    cam = RaycastCamera(level, HALF_CAMERA)
+    est = make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, health=True,
+                         health_min_inliers="auto", health_threshold=0.3)
+    assert est.health_threshold == 0.3
+    assert make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, health=True,
+                          health_threshold=0.3).health_threshold == 0.5  # a number wins
+    with pytest.raises(TrackingError, match="auto.*calibrated"):
+        make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, health=True,
+                       health_min_inliers="auto")
+    for bad in ("sometimes", 1.5, True):
+        with pytest.raises(TrackingError, match="health_min_inliers"):
+            make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, health=True,
+                           health_min_inliers=bad)
+    # without health or recover "auto" is never read and needs nothing
+    assert math.isnan(make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA,
+                                     health_min_inliers="auto").health_threshold)
+
+
+def test_calibration_stage_uses_the_maps_held_out_views_and_is_cached(tmp_path, level):
+    """A fit-map artifact's held-out views (its ``eval_views`` input) are the calibration's
+    views, also when the map is given as its map.npz path; the artifact is a cache hit the
+    second time and its key follows the tracker's options and the calibration."""
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.pipeline.stages.context import Ref, StageContext
+    from navbench.pipeline.stages.health import (HealthCalibrationConfig, calibration_views,
+                                                 health_calibration_stage)
+    from navbench.pipeline.stages.views import ViewsConfig, collect_views_stage
+    from tests.localize.worlds import ExactWorld
+
+    ctx = StageContext(ArtifactStore(tmp_path / "cache"))
+    lvl = Ref("make-level", "0" * 64, tmp_path / "level.json", True, level.name)
+    from navbench.levelio import save_level
+
+    save_level(level, lvl.path)
+    train = collect_views_stage(ctx, lvl, ViewsConfig(6, "half", 1))
+    held = collect_views_stage(ctx, lvl, ViewsConfig(5, "half", 2))
+
+    def fake_fit(d):
+        (d / "map.npz").write_bytes(b"not read by this test")
+
+    path, key, _ = ctx.run("fit-map", {"fake": 1}, {"level": lvl.key, "views": train.key,
+                                                     "eval_views": held.key}, fake_fit)
+    for spec in ("fit", str(path / "map.npz")):
+        v = calibration_views(ctx, spec, key, lvl)
+        assert (v.stage, v.key) == ("collect-views", held.key)
+    # a map with no artifact behind it: views rendered from the level (seeded, its own stream)
+    v = calibration_views(ctx, "true", "true", lvl, count=4)
+    assert v.key not in (train.key, held.key)
+
+    world = ExactWorld(level)
+    a = health_calibration_stage(ctx, held, "map-a", lambda: world)
+    b = health_calibration_stage(ctx, held, "map-a", lambda: world)
+    assert not a.cached and b.cached and a.key == b.key
+    assert a.meta["threshold"] == 0.5 and a.meta["views"] == 5  # exact map: the ceiling
+    c = health_calibration_stage(ctx, held, "map-a", lambda: world,
+                                 HealthCalibrationConfig({}, {"health_tol": 0.02}))
+    d = health_calibration_stage(ctx, held, "map-a", lambda: world,
+                                 HealthCalibrationConfig({}, {"health_min_inliers": "auto"}))
+    e = health_calibration_stage(ctx, held, "map-b", lambda: world)
+    assert c.key != a.key and d.key == a.key and e.key != a.key
