@@ -99,10 +99,10 @@ class TrackerConfig:
         if min(self.prior_sigma) <= 0 or min(self.off_plane_sigma) <= 0:
             raise TrackingError("prior sigmas must be > 0")
         m = self.health_min_inliers
-        if not self.health_tol > 0 or not (m == "auto" or (isinstance(m, (int, float))
-                                                          and not isinstance(m, bool) and 0 <= m <= 1)):
-            raise TrackingError(f"health_tol must be > 0 and health_min_inliers within [0, 1] or "
-                                f"'auto', got {self.health_tol!r} and {m!r}")
+        if not self.health_tol > 0:
+            raise TrackingError(f"health_tol must be > 0, got {self.health_tol!r}")
+        if not (m == "auto" or (isinstance(m, (int, float)) and not isinstance(m, bool) and 0 <= m <= 1)):
+            raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', got {m!r}")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
 
