@@ -87,6 +87,10 @@ class TrackerConfig:
     recover: bool = False
     relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
     relocalize_top: int = 3  # hypotheses verified per relocalisation
+    # steps the runner-up hypotheses of a relocalisation (verified, passing the test) are tracked
+    # beside the chosen one; then the track with the largest summed inlier fraction is kept
+    # (look-alike places diverge as the robot moves). 0: off, the chosen one is final.
+    relocalize_keep: int = 0
 
     def __post_init__(self):
         if self.optimizer not in OPTIMIZERS:
@@ -105,6 +109,8 @@ class TrackerConfig:
             raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', got {m!r}")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
+        if isinstance(self.relocalize_keep, bool) or int(self.relocalize_keep) < 0:
+            raise TrackingError(f"relocalize_keep must be a step count >= 0, got {self.relocalize_keep!r}")
 
 
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:

@@ -150,3 +150,49 @@ def test_calibration_stage_uses_the_maps_held_out_views_and_is_cached(tmp_path, 
                                  HealthCalibrationConfig({}, {"health_min_inliers": "auto"}))
     e = health_calibration_stage(ctx, held, "map-b", lambda: world)
     assert c.key != a.key and d.key == a.key and e.key != a.key
+
+
+def _walk_frames(level, steps=6, seed=1):
+    from navbench.sim.camera import RaycastCamera
+    from navbench.sim.dynamics import Control
+    from navbench.track.study import record_trajectories
+
+    tr = record_trajectories(level, 1, steps, noise="none", seed=seed)[0]
+    cam = RaycastCamera(level, HALF_CAMERA)
+    return tr.true_poses, [Control(*u) for u in tr.controls], cam
+
+
+@pytest.mark.parametrize("runner_is_true", [True, False])
+def test_runner_up_hypotheses_are_kept_until_the_residuals_decide(level, runner_is_true):
+    """Option ``relocalize_keep``: after a relocalisation the verified runner-up is tracked
+    beside the chosen track for K steps; the track with the larger summed inlier fraction wins
+    (here the threshold is 0, so neither track ever raises an alarm). The true track beats a
+    look-alike 0.8 m away whichever of the two was chosen."""
+    from navbench.track.registry import make_estimator
+
+    poses, controls, cam = _walk_frames(level)
+    est = make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, recover=True,
+                         health_min_inliers=0.0, relocalize_keep=2)
+    wrong = poses[1] + np.array([0.0, 0.0, 0.0])
+    wrong[:2] += 0.8 * np.array([-np.sin(poses[1, 2]), np.cos(poses[1, 2])])  # 0.8 m to the side
+    est.reset(poses[0], cam.render(poses[0]))
+    est.update(controls[0], cam.render(poses[1]))
+    main, runner = (wrong, poses[1]) if runner_is_true else (poses[1], wrong)
+    est.pose = main.copy()
+    est._runners = {"poses": [runner.copy()], "sums": [0.9], "main": 0.9, "left": 2}
+    out = [est.update(controls[t], cam.render(poses[t + 1])) for t in (1, 2, 3)]
+    assert est._runners is None  # decided after two steps
+    err = np.hypot(*(np.array(out)[1:, :2] - poses[3:5, :2]).T)
+    assert err.max() < 0.03
+    assert est.last_health["relocalized"] is False
+
+
+def test_runner_ups_off_by_default_and_validated(level):
+    from navbench.track.registry import make_estimator
+
+    poses, controls, cam = _walk_frames(level)
+    est = make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, recover=True)
+    assert est.config.relocalize_keep == 0
+    for bad in (-1, True):
+        with pytest.raises(TrackingError, match="relocalize_keep"):
+            make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, relocalize_keep=bad)

@@ -177,6 +177,9 @@ def register(app: typer.Typer) -> None:
         if stored:
             console.print(f"stored {stored['rows']} new tracking rows (run {stored['run_id']}, "
                           f"study {stored['study_key'][:12]}) in {stored['db']}", markup=False)
+        console.print(f"took {time.perf_counter() - t0:.1f} s"
+                      + (" (cached study: step times are those of the run that computed it)"
+                         if ref.cached else ""), markup=False)
 
 
 def _finite(obj):
