@@ -135,6 +135,17 @@ def test_calibration_stage_uses_the_maps_held_out_views_and_is_cached(tmp_path, 
     for spec in ("fit", str(path / "map.npz")):
         v = calibration_views(ctx, spec, key, lvl)
         assert (v.stage, v.key) == ("collect-views", held.key)
+    assert calibration_views(ctx, key[:10], "content-hash", lvl).key == held.key  # a key prefix
+    # imported data (no level): a fit of import-views without held-out ones calibrates on them
+    from navbench.pipeline.stages.imported import store_views_stage
+    from navbench.worldmodel.views import load_views
+
+    imp = store_views_stage(ctx, load_views(train.path))
+    p2, k2, _ = ctx.run("fit-map", {"fake": 2}, {"views": imp.key}, fake_fit)
+    v = calibration_views(ctx, str(p2 / "map.npz"), "content-hash", None)
+    assert (v.stage, v.key) == ("import-views", imp.key)
+    with pytest.raises(Exception, match="no views of its own"):
+        calibration_views(ctx, str(tmp_path / "level.json"), "content-hash", None)
     # a map with no artifact behind it: views rendered from the level (seeded, its own stream)
     v = calibration_views(ctx, "true", "true", lvl, count=4)
     assert v.key not in (train.key, held.key)
@@ -196,3 +207,36 @@ def test_runner_ups_off_by_default_and_validated(level):
     for bad in (-1, True):
         with pytest.raises(TrackingError, match="relocalize_keep"):
             make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, relocalize_keep=bad)
+
+
+def test_imported_sequence_tracks_with_the_auto_threshold(tmp_path):
+    """track-sequence (imported data, no level): ``health_min_inliers=auto`` is calibrated on
+    the views of the map's fit-map artifact; a bare map file has none and is refused in one
+    line."""
+    import shutil
+
+    from navbench.errors import ConfigError
+    from navbench.geometry import HALF_CAMERA
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.pipeline.stages.imported import store_views_stage
+    from navbench.pipeline.stages.context import StageContext
+    from navbench.pipeline.tracking import track_sequence
+    from navbench.track.sequence import render_walk
+    from navbench.worldmodel.grid import voxelize_level
+    from navbench.worldmodel.tum import export_views
+    from tests.pipeline.test_stages import tiny_level
+
+    lv = tiny_level()
+    views = render_walk(lv, 6, HALF_CAMERA, seed=2)
+    seq = export_views(views, tmp_path / "seq")
+    voxelize_level(lv).save(tmp_path / "map.npz")
+    store = ArtifactStore(tmp_path / "cache")
+    imp = store_views_stage(StageContext(store), views)
+    path = store.write("fit-map", "ab" * 32, lambda d: shutil.copy(tmp_path / "map.npz", d / "map.npz"),
+                       config={}, inputs={"views": imp.key}, version=1)
+    opts = {"health": True, "health_min_inliers": "auto"}
+    res = track_sequence(seq, map=path / "map.npz", store=store, options=opts)
+    assert np.isfinite(res.ate_m) and res.ate_m < 0.05
+    (cal,) = store.ls("health-calibration")
+    with pytest.raises(ConfigError, match="no views of its own"):
+        track_sequence(seq, map=tmp_path / "map.npz", store=store, options=opts)

@@ -98,21 +98,30 @@ def calibration_views(ctx: StageContext, map_spec: str, map_key: str, level: Ref
 
 
 def _map_manifest(ctx: StageContext, map_spec: str, map_key: str):
-    """(manifest, store) of the fit-map artifact behind the map, or (None, None)."""
+    """(manifest, store) of the fit-map artifact behind the map, or (None, None): the
+    artifact directory of a map file or directory (a manifest beside it), else the artifact
+    ``map_key`` or the key (prefix) ``map_spec`` in ``ctx``'s store."""
+    import re
+
     from navbench.pipeline.cache import ArtifactStore
 
     p = Path(map_spec)
-    if p.is_file():  # a map file: an artifact's if its directory has a fit-map manifest
-        mf = p.parent / "manifest.json"
+    if p.exists():  # a map file or an artifact directory: an artifact's if it has a fit-map manifest
+        d = p if p.is_dir() else p.parent
         try:
-            man = json.loads(mf.read_text())
+            man = json.loads((d / "manifest.json").read_text())
         except (OSError, ValueError):
             return None, None
         if not isinstance(man, dict) or man.get("stage") != "fit-map":
             return None, None
-        return man, ArtifactStore(p.parent.parent.parent)
-    if ctx.store.path("fit-map", map_key).exists():
-        return json.loads((ctx.store.load("fit-map", map_key) / "manifest.json").read_text()), ctx.store
+        return man, ArtifactStore(d.parent.parent)
+    for key in (map_key, map_spec):
+        if key and re.fullmatch(r"[0-9a-f]{6,64}", key):
+            try:
+                stage, full = ctx.store.find(key, "fit-map")
+            except ArtifactError:
+                continue
+            return json.loads((ctx.store.load(stage, full) / "manifest.json").read_text()), ctx.store
     return None, None
 
 
@@ -188,3 +197,19 @@ def study_health_thresholds(ctx: StageContext, cfg, level: Ref, vmap) -> tuple[d
         thresholds[name] = float(ref.meta["threshold"])
         keys[f"health_calibration.{name}"] = ref.key
     return thresholds, keys
+
+
+def sequence_health_threshold(ctx: StageContext | None, map_spec, map_key: str, model,
+                              options: dict) -> float:
+    """The calibrated threshold of ``model`` (given as ``map_spec``: a path, a key or the model
+    itself) for an imported sequence's tracking with ``options``: from the views of the
+    map's fit-map artifact (no level to render others: a map without one is an error)."""
+    if ctx is None:
+        from navbench.pipeline.cache import ArtifactStore
+
+        ctx = StageContext(ArtifactStore("results/cache"))
+    spec = str(map_spec) if isinstance(map_spec, (str, Path)) else map_key
+    views = calibration_views(ctx, spec, map_key, None)
+    ref = health_calibration_stage(ctx, views, map_key, lambda: model,
+                                   HealthCalibrationConfig({}, tracker_options(options)))
+    return float(ref.meta["threshold"])
