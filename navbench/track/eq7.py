@@ -109,7 +109,8 @@ class TrackerConfig:
             raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', got {m!r}")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
-        if isinstance(self.relocalize_keep, bool) or int(self.relocalize_keep) < 0:
+        k = self.relocalize_keep
+        if isinstance(k, bool) or not isinstance(k, int) or k < 0:
             raise TrackingError(f"relocalize_keep must be a step count >= 0, got {self.relocalize_keep!r}")
 
 

@@ -1,5 +1,6 @@
-"""Bad input to ``ours``'s health threshold (``-o ours.health_min_inliers=...``): one
-``error:`` line naming the option and the value."""
+"""Bad input to ``ours``'s health threshold and runner-up options (``-o
+ours.health_min_inliers=...``, ``-o ours.relocalize_keep=...``): one ``error:`` line naming
+the option and the value."""
 
 from __future__ import annotations
 
@@ -8,8 +9,12 @@ import pytest
 from tests.bad_input.conftest import assert_clean_error, nb
 
 
-@pytest.mark.parametrize("value, shown", [("sometimes", "'sometimes'"), ("1.5", "1.5"), ("true", "True")])
-def test_bad_health_threshold(tmp_path, monkeypatch, value, shown):
+@pytest.mark.parametrize("option, value, shown", [
+    ("health_min_inliers", "sometimes", "'sometimes'"), ("health_min_inliers", "1.5", "1.5"),
+    ("health_min_inliers", "true", "True"), ("relocalize_keep", "abc", "'abc'"),
+    ("relocalize_keep", "-2", "-2"),
+])
+def test_bad_health_options(tmp_path, monkeypatch, option, value, shown):
     from navbench.levelio import save_level
     from tests.track.synth import small_level
 
@@ -17,5 +22,5 @@ def test_bad_health_threshold(tmp_path, monkeypatch, value, shown):
     path = save_level(small_level(), tmp_path / "track-room.json")
     res = nb("track-eval", str(path), "--estimators", "ours", "--map", "true", "--steps", "2",
              "--trajectories", "1", "--no-store", "-o", "ours.health=true",
-             "-o", f"ours.health_min_inliers={value}")
-    assert_clean_error(res, "health_min_inliers", shown)
+             "-o", f"ours.{option}={value}")
+    assert_clean_error(res, option, shown)

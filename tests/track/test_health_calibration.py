@@ -204,7 +204,7 @@ def test_runner_ups_off_by_default_and_validated(level):
     poses, controls, cam = _walk_frames(level)
     est = make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, recover=True)
     assert est.config.relocalize_keep == 0
-    for bad in (-1, True):
+    for bad in (-1, True, "abc", 1.5):
         with pytest.raises(TrackingError, match="relocalize_keep"):
             make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, relocalize_keep=bad)
 
