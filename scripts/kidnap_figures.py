@@ -22,7 +22,9 @@ threshold calibrated per map on its own views, printed per level); ``--keep K`` 
 ``-o ours.relocalize_keep=K`` (runner-up hypotheses tracked for K steps after a
 relocalisation); ``--plain-recover`` runs study 1 with ``recover=true`` (the tracker as it
 would be deployed: an alarm relocalises; its ATE then is that of ``ours`` with recovery).
-Options at their defaults are not passed, so the studies stored before them keep their keys.
+``--collisions stop`` records the trajectories without appendix D's freeze after a collision
+(``track-eval --collisions``). Options at their defaults are not passed, so the studies stored
+before them keep their keys.
 
 Writes nothing but the studies' cache and rows; prints one table.
 """
@@ -72,6 +74,7 @@ def main() -> None:
     ap.add_argument("--plain-recover", action="store_true",
                     help="without kidnapping too, run ours with recover=true (as deployed) "
                     "instead of the read-only health test")
+    ap.add_argument("--collisions", default="freeze", help="freeze or stop: track-eval --collisions")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--db", default="sqlite:///results/navbench.db")
     args = ap.parse_args()
@@ -87,12 +90,16 @@ def main() -> None:
     # options at their defaults are not passed: the studies keep the keys they were stored under
     health = [] if args.health_threshold == "0.5" else ["-o", f"ours.health_min_inliers={args.health_threshold}"]
     keep = [] if args.keep == 0 else ["-o", f"ours.relocalize_keep={args.keep}"]
+    if args.collisions != "freeze":
+        keep_col = ["--collisions", args.collisions]
+    else:
+        keep_col = []
     from navbench.pipeline.db import ResultsDB
 
     db = ResultsDB(args.db)
     plain, kid = [], []
     for level in args.levels.split(","):
-        seed = ["--seed", str(args.seed)]
+        seed = ["--seed", str(args.seed), *keep_col]
         plain_opts = (["-o", "ours.recover=true", "-o", f"ours.relocalizer_name={args.relocalizer}",
                        *keep] if args.plain_recover else ["-o", "ours.health=true"])
         a = track_eval(level, args, ["--estimators", "ours,dynamics", "--odometry", "body",

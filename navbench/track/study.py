@@ -68,6 +68,11 @@ class TrackingStudyConfig:
     # frame (required with kidnapping). Left out of the stage's cache key at these defaults.
     kidnap_every: int = 0
     odometry: str = "world"
+    # what the recording does after a collision (COLLISION_MODES): "freeze", appendix D's rule
+    # (no further movement: the rest of the trajectory stands still while its controls still
+    # command motion), or "stop" (the colliding step does not move the robot, as a bumper
+    # would; the recording goes on to a new waypoint). Left out of the key at "freeze".
+    collisions: str = "freeze"
 
     def __post_init__(self):
         if self.trajectories < 1 or self.seeds < 1 or self.steps < 1:
@@ -86,9 +91,16 @@ class TrackingStudyConfig:
         if self.odometry not in ODOMETRY_MODES:
             raise ConfigError(f"--odometry: expected one of {', '.join(ODOMETRY_MODES)}, "
                               f"got {self.odometry!r}")
+        if self.collisions not in COLLISION_MODES:
+            raise ConfigError(f"--collisions: expected one of {', '.join(COLLISION_MODES)}, "
+                              f"got {self.collisions!r}")
         if self.kidnap_every and self.odometry != "body":
             raise ConfigError("--kidnap-every needs --odometry body (world-frame controls would "
                               "tell the estimators the new true heading)")
+
+
+#: What a trajectory recording does after a collision (:class:`TrackingStudyConfig.collisions`).
+COLLISION_MODES = ("freeze", "stop")
 
 
 @dataclass
@@ -106,7 +118,8 @@ class Trajectory:
 
 def record_trajectories(level, count: int, steps: int, noise: str = "tracking", seed: int = 0,
                         clearance: float = 1.2 * AGENT_LENGTH,
-                        waypoint_range: float = 3.0, kidnap_every: int = 0) -> list[Trajectory]:
+                        waypoint_range: float = 3.0, kidnap_every: int = 0,
+                        collisions: str = "freeze") -> list[Trajectory]:
     """Drive the simulator (no camera) ``count`` times for ``steps`` controls; see the module doc.
 
     Trajectory ``i`` uses simulator seed ``seed * 100003 + i``; start poses and waypoints come
@@ -114,6 +127,9 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
     ``kidnap_every`` N > 0 the true pose is teleported after every N-th control to a free pose
     (clearance ``clearance``, uniform heading) drawn from its own stream
     ``np.random.default_rng([seed, i, KIDNAP_SALT])`` (:mod:`navbench.track.kidnap`).
+    ``collisions="stop"``: a colliding step leaves the robot at its previous pose (the collision
+    flag is cleared, the noise stream goes on, a new waypoint is drawn) instead of freezing it
+    for the rest of the trajectory; ``collided`` still reports it.
     """
     from navbench.track.kidnap import KIDNAP_SALT, kidnap_indices
 
@@ -144,6 +160,10 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
             poses.append(res.pose.copy())
             if res.collided:  # should not happen with the wide clearance; the record stays valid
                 target = None
+                if collisions == "stop":  # the bumper stops the robot where it was
+                    collided = True
+                    sim.reset(poses[-2])
+                    poses[-1] = sim.pose.copy()
             if t + 1 in kidnaps:
                 collided |= bool(sim.collided)
                 xy = sample_free_points(level, krng, 1, clearance)[0]
@@ -208,7 +228,8 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     if trajectories is None:
         trajectories = record_trajectories(level, config.trajectories, config.steps, config.noise,
                                            config.seed, config.waypoint_clearance,
-                                           config.waypoint_range, config.kidnap_every)
+                                           config.waypoint_range, config.kidnap_every,
+                                           config.collisions)
     camera = RaycastCamera(level, intr, config.camera_height)
     opts = config.estimator_options or {}
     runs = []  # (name, seed, estimator)

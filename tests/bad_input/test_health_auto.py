@@ -24,3 +24,11 @@ def test_bad_health_options(tmp_path, monkeypatch, option, value, shown):
              "--trajectories", "1", "--no-store", "-o", "ours.health=true",
              "-o", f"ours.{option}={value}")
     assert_clean_error(res, option, shown)
+
+
+def test_bad_collisions_mode_is_refused_before_anything_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    res = nb("track-eval", "house-1", "--estimators", "dynamics", "--steps", "3",
+             "--trajectories", "1", "--no-store", "--collisions", "bounce")
+    assert_clean_error(res, "--collisions", "bounce")
+    assert not (tmp_path / "results").exists()

@@ -240,3 +240,32 @@ def test_imported_sequence_tracks_with_the_auto_threshold(tmp_path):
     (cal,) = store.ls("health-calibration")
     with pytest.raises(ConfigError, match="no views of its own"):
         track_sequence(seq, map=tmp_path / "map.npz", store=store, options=opts)
+
+
+def test_collisions_stop_instead_of_freezing_the_recording(level):
+    """``collisions="stop"``: a colliding step leaves the robot where it was and the recording
+    goes on; under appendix D's ``freeze`` (the default, keys unchanged) the robot stands still
+    for the rest of the trajectory. Trajectories without a collision are identical."""
+    from navbench.pipeline.stages.track_eval import study_key_config
+    from navbench.sim.world import CollisionWorld
+    from navbench.track.study import TrackingStudyConfig, record_trajectories
+
+    def still(tr):
+        d = np.diff(tr.true_poses, axis=0)
+        return int(np.sum((np.hypot(d[:, 0], d[:, 1]) == 0) & (d[:, 2] == 0)))
+
+    freeze = record_trajectories(level, 4, 1000, noise="mid", seed=1)
+    stop = record_trajectories(level, 4, 1000, noise="mid", seed=1, collisions="stop")
+    assert [t.collided for t in freeze] == [False, False, False, True]
+    for a, b in zip(freeze[:3], stop[:3]):
+        np.testing.assert_array_equal(a.true_poses, b.true_poses)
+    a, b = freeze[3], stop[3]
+    assert b.collided and still(a) > 200 and still(b) < 60
+    k = int(np.flatnonzero(~np.all(a.true_poses == b.true_poses, axis=1))[0])
+    np.testing.assert_array_equal(b.true_poses[k], b.true_poses[k - 1])  # stopped where it was
+    world = CollisionWorld(level)
+    assert min(world.clearance(p[:2]) for p in b.true_poses) >= world.radius - 1e-9
+    assert "collisions" not in study_key_config(TrackingStudyConfig())
+    assert study_key_config(TrackingStudyConfig(collisions="stop"))["collisions"] == "stop"
+    with pytest.raises(Exception, match="--collisions"):
+        TrackingStudyConfig(collisions="bounce")
