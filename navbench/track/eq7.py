@@ -105,13 +105,15 @@ class TrackerConfig:
         m = self.health_min_inliers
         if not self.health_tol > 0:
             raise TrackingError(f"health_tol must be > 0, got {self.health_tol!r}")
-        if not (m == "auto" or (isinstance(m, (int, float)) and not isinstance(m, bool) and 0 <= m <= 1)):
-            raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', got {m!r}")
+        number = isinstance(m, (int, float)) and not isinstance(m, bool)
+        if not (m == "auto" or (number and 0 <= m <= 1)):
+            raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', "
+                                f"got {m!r}")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
         k = self.relocalize_keep
         if isinstance(k, bool) or not isinstance(k, int) or k < 0:
-            raise TrackingError(f"relocalize_keep must be a step count >= 0, got {self.relocalize_keep!r}")
+            raise TrackingError(f"relocalize_keep must be a step count >= 0, got {k!r}")
 
 
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:

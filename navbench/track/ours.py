@@ -431,7 +431,6 @@ class _PredictionToObservation:
         self.last_health = {"inliers": f, "alarm": alarm, "relocalized": relocalized}
         return est
 
-
     def _track_one(self, frame: Frame, ref_pose: np.ndarray, pred: np.ndarray):
         """One tracking step of a hypothesis: eq. 7 against the map's render at ``ref_pose``
         from the prediction ``pred``; ``(pose, inlier fraction)``."""
@@ -449,7 +448,8 @@ class _PredictionToObservation:
         r["main"] += 0.0 if math.isnan(f) else f
         keep_p, keep_s = [], []
         for pose, total in zip(r["poses"], r["sums"]):
-            cand, fc = self._track_one(frame, pose, predict_pose(pose, _control_at(control, self.pose, pose)))
+            pred = predict_pose(pose, _control_at(control, self.pose, pose))
+            cand, fc = self._track_one(frame, pose, pred)
             if fc >= self.health_threshold:
                 keep_p.append(cand)
                 keep_s.append(total + fc)

@@ -177,7 +177,8 @@ def auto_health_estimators(cfg) -> dict[str, dict]:
     return out
 
 
-def study_health_thresholds(ctx: StageContext, cfg, level: Ref, vmap) -> tuple[dict[str, float], dict[str, str]]:
+def study_health_thresholds(ctx: StageContext, cfg, level: Ref,
+                            vmap) -> tuple[dict[str, float], dict[str, str]]:
     """For a tracking study ``cfg`` on ``level`` with map ``vmap`` (a
     :class:`~navbench.pipeline.stages.track_eval.StudyMap`): ``({estimator: threshold},
     {"health_calibration.<estimator>": key})``, both empty when no estimator asks for
