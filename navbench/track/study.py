@@ -70,8 +70,9 @@ class TrackingStudyConfig:
     odometry: str = "world"
     # what the recording does after a collision (COLLISION_MODES): "freeze", appendix D's rule
     # (no further movement: the rest of the trajectory stands still while its controls still
-    # command motion), or "stop" (the colliding step does not move the robot, as a bumper
-    # would; the recording goes on to a new waypoint). Left out of the key at "freeze".
+    # command motion), or "stop" (the colliding step does not move the robot and its control
+    # records no motion, as a bumper and stalled wheels would; the recording goes on to a new
+    # waypoint). Left out of the key at "freeze".
     collisions: str = "freeze"
 
     def __post_init__(self):
@@ -127,9 +128,10 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
     ``kidnap_every`` N > 0 the true pose is teleported after every N-th control to a free pose
     (clearance ``clearance``, uniform heading) drawn from its own stream
     ``np.random.default_rng([seed, i, KIDNAP_SALT])`` (:mod:`navbench.track.kidnap`).
-    ``collisions="stop"``: a colliding step leaves the robot at its previous pose (the collision
-    flag is cleared, the noise stream goes on, a new waypoint is drawn) instead of freezing it
-    for the rest of the trajectory; ``collided`` still reports it.
+    ``collisions="stop"``: a colliding step leaves the robot at its previous pose and records
+    no motion for it (a bumper stops the robot, its wheels stall; the collision flag is cleared,
+    the noise stream goes on, a new waypoint is drawn) instead of freezing it for the rest of
+    the trajectory while its controls still command motion; ``collided`` still reports it.
     """
     from navbench.track.kidnap import KIDNAP_SALT, kidnap_indices
 
@@ -160,10 +162,11 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
             poses.append(res.pose.copy())
             if res.collided:  # should not happen with the wide clearance; the record stays valid
                 target = None
-                if collisions == "stop":  # the bumper stops the robot where it was
-                    collided = True
+                if collisions == "stop":  # the bumper stops the robot where it was, its
+                    collided = True        # wheels stall: the odometry reads no motion
                     sim.reset(poses[-2])
                     poses[-1] = sim.pose.copy()
+                    controls[-1] = (0.0, controls[-1][1], 0.0)
             if t + 1 in kidnaps:
                 collided |= bool(sim.collided)
                 xy = sample_free_points(level, krng, 1, clearance)[0]

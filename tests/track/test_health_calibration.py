@@ -263,6 +263,7 @@ def test_collisions_stop_instead_of_freezing_the_recording(level):
     assert b.collided and still(a) > 200 and still(b) < 60
     k = int(np.flatnonzero(~np.all(a.true_poses == b.true_poses, axis=1))[0])
     np.testing.assert_array_equal(b.true_poses[k], b.true_poses[k - 1])  # stopped where it was
+    assert b.controls[k - 1][0] == 0.0 and b.controls[k - 1][2] == 0.0  # and read no motion
     world = CollisionWorld(level)
     assert min(world.clearance(p[:2]) for p in b.true_poses) >= world.radius - 1e-9
     assert "collisions" not in study_key_config(TrackingStudyConfig())

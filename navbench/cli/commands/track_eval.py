@@ -63,7 +63,8 @@ def register(app: typer.Typer) -> None:
         collisions: str = typer.Option("freeze", "--collisions", help="After a collision while "
                                        "recording: freeze (appendix D: no further movement for the "
                                        "rest of the trajectory) or stop (the colliding step does not "
-                                       "move the robot; it goes on to a new waypoint)."),
+                                       "move the robot and its odometry reads no motion; it goes on "
+                                       "to a new waypoint)."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
                                          "emission.steps=100."),
