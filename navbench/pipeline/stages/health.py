@@ -17,9 +17,10 @@ A map file that lies in an artifact directory (``.../fit-map/<key>/map.npz``, e.
 checkout's cache) is found through that directory's manifest, its views in the same store.
 
 The artifact (``calibration.json``) holds the threshold, the fractions' quantiles and the
-views used; it is keyed by the calibration config (:class:`~navbench.track.health.HealthCalibration`
-plus the health test's tolerances) and the keys of the map and the views. Cheap (about 5 s for
-200 half-camera views), cached all the same.
+views used; it is keyed by the calibration config (:class:`~navbench.track.health.HealthCalibration`,
+resolved) plus the estimator's options that change it (:func:`tracker_options`) and the keys of
+the map and the views. Cheap (a render and an alignment per view: 10-20 s for 200 half-camera
+views on a loaded 2-core machine), cached all the same.
 """
 
 from __future__ import annotations
@@ -62,7 +63,8 @@ class HealthCalibrationConfig:
 
 
 #: Tracker options that do not change the calibration (left out of its key).
-_NOT_CALIBRATION = ("health", "health_min_inliers", "recover", "relocalizer_name", "relocalize_top")
+_NOT_CALIBRATION = ("health", "health_min_inliers", "recover", "relocalizer_name", "relocalize_top",
+                    "relocalize_keep")
 
 
 def tracker_options(options: dict) -> dict:
