@@ -73,7 +73,7 @@ class TrackerConfig:
     yaw_search_pixels: int = 400
     # tracking health and recovery (issue 14; navbench.track.health, navbench.track.relocalize):
     # health: compute the inlier fraction at each estimate and raise an alarm below
-    # health_min_inliers (calibrated on normal tracking of house-1, README, "Localisation and the kidnapped robot");
+    # health_min_inliers (0.5: calibrated on normal tracking of house-1; "auto": per map, below);
     # recover: on an alarm, relocalise through the relocaliser (health implied). Off by default:
     # with both off the tracker computes exactly what it did before.
     health: bool = False

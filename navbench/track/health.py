@@ -19,8 +19,11 @@ Projections that leave the reference image are not evidence either; with fewer t
 ``min_pixels`` evidence pixels the fraction is ``nan`` (no decision: healthy).
 
 The tracker raises an alarm when the fraction falls below ``health_min_inliers``
-(:class:`navbench.track.eq7.TrackerConfig`); the threshold was calibrated on normal tracking of
-``house-1`` only (see README, "Localisation and the kidnapped robot"). Pure numpy: arrays in, a float out.
+(:class:`navbench.track.eq7.TrackerConfig`): the fixed 0.5 was calibrated on normal tracking of
+``house-1`` only (see README, "Localisation and the kidnapped robot"); ``"auto"`` sets it per map
+from the map's own views (:class:`HealthCalibration`, :func:`view_inlier_fractions`,
+:func:`calibrated_threshold`; the cached stage: :mod:`navbench.pipeline.stages.health`).
+Math layer: arrays in, arrays out.
 """
 
 from __future__ import annotations
