@@ -414,7 +414,11 @@ class _PredictionToObservation:
             t1 = time.perf_counter()
             best, best_f = None, (f if not math.isnan(f) else -math.inf)
             passed = []
-            for hyp in list(self._relocalizer.localize(frame))[: c.relocalize_top]:
+            # with runner-ups the relocaliser must report its ambiguity: ask for relocalize_top
+            # hypotheses (navbench.localize returns its config.k = 1 by default)
+            hyps = (self._relocalizer.localize(frame, k=c.relocalize_top) if c.relocalize_keep > 0
+                    else self._relocalizer.localize(frame))
+            for hyp in list(hyps)[: c.relocalize_top]:
                 pose = np.asarray(hyp.pose, dtype=np.float64).reshape(3)
                 cand, fc = self._track_one(frame, pose, pose)
                 if fc >= self.health_threshold:

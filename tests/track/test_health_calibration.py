@@ -270,3 +270,24 @@ def test_collisions_stop_instead_of_freezing_the_recording(level):
     assert study_key_config(TrackingStudyConfig(collisions="stop"))["collisions"] == "stop"
     with pytest.raises(Exception, match="--collisions"):
         TrackingStudyConfig(collisions="bounce")
+
+
+@pytest.mark.parametrize("keep, asked", [(0, None), (2, 3)])
+def test_runner_ups_ask_the_relocaliser_for_its_ambiguity(level, keep, asked):
+    """With runner-ups the relocaliser is asked for ``relocalize_top`` hypotheses (the localiser
+    returns one by default); without them the call is as before."""
+    from navbench.track.registry import make_estimator
+
+    poses, controls, cam = _walk_frames(level)
+    calls = []
+
+    class Fake:
+        def localize(self, frame, k=None):
+            calls.append(k)
+            return []
+
+    est = make_estimator("ours", renderer=cam.render, intrinsics=HALF_CAMERA, recover=True,
+                         relocalizer=Fake(), relocalize_keep=keep)
+    est.reset(poses[0], cam.render(poses[0]))
+    est.update(controls[0], cam.render(poses[3] + np.array([1.0, 0.0, 2.0])))  # far off: alarm
+    assert est.last_health["alarm"] and calls == [asked]
