@@ -24,7 +24,8 @@ from navbench.config import to_jsonable
 #: score.csv gained conditions, goal, preset, soft_spl, final_dist_m; by_difficulty.csv beside it.
 FORMAT = {"make-level": 1, "collect-views": 1, "fit-map": 1, "true-map": 1, "sample-tasks": 1,
           "episode": 1, "score": 5, "report": 5, "verify": 1, "track-eval": 1,
-          "import-views": 1, "localize-bank": 1, "localize-eval": 2, "image-goals": 1}
+          "import-views": 1, "localize-bank": 1, "localize-eval": 2, "image-goals": 1,
+          "health-calibration": 1}
 
 
 VERIFY_FILE = "verified.json"

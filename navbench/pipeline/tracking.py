@@ -59,8 +59,15 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
     seq = read_sequence(directory, cfg.max_tilt_deg, cfg.max_dt,
                         read_views=reading.read if reading is not None else None)
 
+    threshold = None
+    if model is not None and dict(cfg.options).get("health_min_inliers") == "auto":
+        from navbench.pipeline.stages.health import sequence_health_threshold
+
+        threshold = sequence_health_threshold(StageContext(store) if store is not None else None,
+                                              map, map_key, model, cfg.options)
+
     def work() -> SequenceResult:
-        res = run_tracking(seq, model, map_key, cfg, str(directory))
+        res = run_tracking(seq, model, map_key, cfg, str(directory), threshold)
         if out is not None:
             path = default_output(seq, cfg) if str(out) == "default" else Path(out)
             res.out = write_trajectory(path, seq.timestamps, res.est_poses, seq.views.camera_height)

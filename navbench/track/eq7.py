@@ -73,7 +73,7 @@ class TrackerConfig:
     yaw_search_pixels: int = 400
     # tracking health and recovery (issue 14; navbench.track.health, navbench.track.relocalize):
     # health: compute the inlier fraction at each estimate and raise an alarm below
-    # health_min_inliers (calibrated on normal tracking of house-1, README, "Localisation and the kidnapped robot");
+    # health_min_inliers (0.5: calibrated on normal tracking of house-1; "auto": per map, below);
     # recover: on an alarm, relocalise through the relocaliser (health implied). Off by default:
     # with both off the tracker computes exactly what it did before.
     health: bool = False
@@ -81,10 +81,16 @@ class TrackerConfig:
     health_photo_tol: float = 0.3  # colour agreement of an inlier (L1 over RGB)
     health_band: tuple[float, float] = (0.05, 1.1)  # m, heights of the points that count
     health_pixels: int = 1000  # fixed random pixels the health test reads
-    health_min_inliers: float = 0.5
+    # a number, or "auto": the map's own threshold (navbench.track.health.HealthCalibration,
+    # calibrated on the map's views; the estimator is then given it as health_threshold=)
+    health_min_inliers: float | str = 0.5
     recover: bool = False
     relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
     relocalize_top: int = 3  # hypotheses verified per relocalisation
+    # steps the runner-up hypotheses of a relocalisation (verified, passing the test) are tracked
+    # beside the chosen one; then the track with the largest summed inlier fraction is kept
+    # (look-alike places diverge as the robot moves). 0: off, the chosen one is final.
+    relocalize_keep: int = 0
 
     def __post_init__(self):
         if self.optimizer not in OPTIMIZERS:
@@ -96,10 +102,18 @@ class TrackerConfig:
                 raise TrackingError(f"option {name} must be >= 1, got {getattr(self, name)!r}")
         if min(self.prior_sigma) <= 0 or min(self.off_plane_sigma) <= 0:
             raise TrackingError("prior sigmas must be > 0")
-        if not self.health_tol > 0 or not 0 <= self.health_min_inliers <= 1:
-            raise TrackingError("health_tol must be > 0 and health_min_inliers within [0, 1]")
+        m = self.health_min_inliers
+        if not self.health_tol > 0:
+            raise TrackingError(f"health_tol must be > 0, got {self.health_tol!r}")
+        number = isinstance(m, (int, float)) and not isinstance(m, bool)
+        if not (m == "auto" or (number and 0 <= m <= 1)):
+            raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', "
+                                f"got {m!r}")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
+        k = self.relocalize_keep
+        if isinstance(k, bool) or not isinstance(k, int) or k < 0:
+            raise TrackingError(f"relocalize_keep must be a step count >= 0, got {k!r}")
 
 
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:

@@ -19,17 +19,23 @@ Projections that leave the reference image are not evidence either; with fewer t
 ``min_pixels`` evidence pixels the fraction is ``nan`` (no decision: healthy).
 
 The tracker raises an alarm when the fraction falls below ``health_min_inliers``
-(:class:`navbench.track.eq7.TrackerConfig`); the threshold was calibrated on normal tracking of
-``house-1`` only (see README, "Localisation and the kidnapped robot"). Pure numpy: arrays in, a float out.
+(:class:`navbench.track.eq7.TrackerConfig`): the fixed 0.5 was calibrated on normal tracking of
+``house-1`` only (see README, "Localisation and the kidnapped robot"); ``"auto"`` sets it per map
+from the map's own views (:class:`HealthCalibration`, :func:`view_inlier_fractions`,
+:func:`calibrated_threshold`; the cached stage: :mod:`navbench.pipeline.stages.health`).
+Math layer: arrays in, arrays out.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
-from navbench.geometry import CAMERA_HEIGHT, Frame, camera_pose
+from navbench.errors import TrackingError
+from navbench.geometry import CAMERA_HEIGHT, Frame, Intrinsics, camera_pose
 from navbench.track.eq7 import Reference, sample_observation
 from navbench.track.lie import se3_inverse
 
@@ -62,3 +68,76 @@ def inlier_fraction(ref: Reference, frame: Frame, pose, idx: np.ndarray, tol: fl
     agree = (np.abs(ref.depth[vi, ui] - z) <= tol * z) \
         & (np.abs(ref.rgb[vi, ui] - obs.rgb[use]).sum(axis=1) <= photo_tol)
     return float(np.sum(agree & seen)) / n
+
+
+# ------------------------------------------------------------------------------ calibration
+
+@dataclass(frozen=True)
+class HealthCalibration:
+    """How ``health_min_inliers = "auto"`` is set per map (:func:`calibrated_threshold`).
+
+    The threshold must sit below the inlier fractions the tracker sees at a *correct* pose on
+    this map (a false alarm otherwise) and above those of a lost track (a kidnap: 0.00-0.1,
+    the module doc). The first depend on the map (how well its fitted depth and colour agree
+    with real frames) and not on any trajectory, so they are measured on the map's own
+    pose-labelled views (held-out views where the map has them), each through **one tracking
+    step** as the tracker takes it: the previous estimate is the view's pose moved by a control's
+    noise (Gaussian, ``perturb = (sigma_xy [m], sigma_theta [rad])``, the default prior's), the
+    map renders the reference there, the tracker's alignment (eq. 7) estimates the view's pose
+    from it, and the test scores the view at that estimate. A random pose error alone would be
+    pessimistic: the alignment leaves the error along directions the image cannot see.
+
+    The threshold is ``factor`` times the ``quantile`` of these fractions, clamped to
+    ``clamp``: a share of the low tail rather than the tail minus a constant, so that a map whose
+    agreement is low everywhere gets a proportionally lower threshold, while a lost track (near
+    0 on any map) still falls below it. ``factor`` and ``quantile`` were chosen on house-1's two
+    fitted maps only (README, "health threshold per map").
+    """
+
+    views: int = 200  # views scored (a seeded subset when the map has more)
+    perturb: tuple[float, float] = (0.05, math.radians(3.0))
+    quantile: float = 0.1
+    factor: float = 0.6
+    clamp: tuple[float, float] = (0.15, 0.5)
+    seed: int = 0
+
+    def __post_init__(self):
+        if int(self.views) < 1 or not 0 < self.quantile < 1 or not self.factor > 0 \
+                or not 0 <= self.clamp[0] <= self.clamp[1] <= 1 or min(self.perturb) < 0:
+            raise TrackingError(f"bad health calibration {self}: views >= 1, 0 < quantile < 1, "
+                                f"factor > 0, 0 <= clamp[0] <= clamp[1] <= 1, perturb >= 0")
+
+
+def view_inlier_fractions(render: Callable[[np.ndarray], Frame], frames: Sequence[Frame],
+                          poses: np.ndarray, intr: Intrinsics, idx: np.ndarray,
+                          cal: HealthCalibration = HealthCalibration(),
+                          camera_height: float = CAMERA_HEIGHT, align: Callable | None = None,
+                          tracker=None, **test) -> np.ndarray:
+    """The health statistic of each view ``frames[i]`` (true planar pose ``poses[i]``) after one
+    tracking step (:class:`HealthCalibration`) against ``render(pose) -> Frame`` (the map):
+    ``align(ref, frame, pred, tracker, seed, camera_height) -> pose`` is the tracker's alignment
+    with its config ``tracker`` (:func:`navbench.track.ours.align`; ``None``: the test is taken
+    at the perturbed pose itself); ``test``: :func:`inlier_fraction`'s tolerances.
+    ``(N,)``, ``nan`` where a view has too few evidence pixels."""
+    from navbench.track.eq7 import prepare_reference
+
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    rng = np.random.default_rng([int(cal.seed), 0xCA11B])
+    sigma = np.array([cal.perturb[0], cal.perturb[0], cal.perturb[1]])
+    out = np.full(len(poses), np.nan)
+    for i, (frame, pose) in enumerate(zip(frames, poses)):
+        prev = pose + rng.normal(0.0, 1.0, 3) * sigma
+        ref = prepare_reference(render(prev), intr, camera_pose(prev, camera_height))
+        est = prev if align is None else align(ref, frame, prev, tracker, 0, camera_height)
+        out[i] = inlier_fraction(ref, frame, est, idx, camera_height=camera_height, **test)
+    return out
+
+
+def calibrated_threshold(fractions, cal: HealthCalibration = HealthCalibration()) -> float:
+    """``clamp(factor * quantile(fractions))`` over the finite fractions (``clamp[1]`` when none
+    is finite: no evidence, the fixed default's ceiling)."""
+    f = np.asarray(fractions, dtype=np.float64)
+    f = f[np.isfinite(f)]
+    if not f.size:
+        return float(cal.clamp[1])
+    return float(np.clip(cal.factor * np.quantile(f, cal.quantile), *cal.clamp))

@@ -268,8 +268,12 @@ class _PredictionToObservation:
 
     def __init__(self, vmap=None, intrinsics: Intrinsics = HALF_CAMERA,
                  camera_height: float = CAMERA_HEIGHT, renderer: Callable | None = None,
-                 seed: int = 0, relocalizer=None, **options):
+                 seed: int = 0, relocalizer=None, health_threshold: float | None = None,
+                 **options):
         self.config = make_config(options)
+        # the alarm threshold: health_min_inliers, or with health_min_inliers="auto" the map's
+        # calibrated one, given by the caller (navbench.pipeline.stages.health)
+        self.health_threshold = _health_threshold(self.config, health_threshold)
         if self.config.recover and not self.uses_map:
             raise TrackingError(f"estimator {self.name!r}: recover needs a map-based tracker")
         self._vmap = vmap
@@ -295,6 +299,8 @@ class _PredictionToObservation:
         self._ref: Reference | None = None
         self._ref_pose: np.ndarray | None = None
         self._prev_frame: Frame | None = None
+        # option relocalize_keep: {"poses": [(3,)], "sums": [float], "main": float, "left": int}
+        self._runners: dict | None = None
 
     def reset(self, pose0, frame0: Frame) -> None:
         self.pose = np.asarray(pose0, dtype=np.float64).copy()
@@ -303,6 +309,7 @@ class _PredictionToObservation:
         self._prev_frame = frame0
         self.last_timing = {}
         self.last_health = None
+        self._runners = None
 
     def _lazy_renderer(self):
         """The fast map renderer behind ``self._render`` when the reference is rendered lazily
@@ -355,7 +362,7 @@ class _PredictionToObservation:
         t2 = time.perf_counter()
         extra: dict[str, float] = {}
         if self.config.health or self.config.recover:
-            est = self._health(ref, frame, est, extra)
+            est = self._health(ref, frame, est, extra, control)
             t2 = time.perf_counter()
         self.pose = est
         self._prev_frame = frame
@@ -376,16 +383,26 @@ class _PredictionToObservation:
                                c.health_tol, c.health_band, self.camera_height,
                                photo_tol=c.health_photo_tol)
 
-    def _health(self, ref: Reference, frame: Frame, est: np.ndarray, timing: dict) -> np.ndarray:
+    def _health(self, ref: Reference, frame: Frame, est: np.ndarray, timing: dict,
+                control=None) -> np.ndarray:
         """The health test at ``est`` (:mod:`navbench.track.health`); on an alarm with option
         ``recover``, relocalise: verify the relocaliser's best ``relocalize_top`` hypotheses by
         one tracking step against the map's rendering there and keep the one with the highest
-        inlier fraction if it passes the test and beats ``est``. Fills ``last_health``; the
-        relocaliser's build (once) and query times go to ``timing`` (ms, within "estimate")."""
+        inlier fraction if it passes the test and beats ``est``. With ``relocalize_keep = K``
+        the other verified hypotheses that pass the test are tracked for K more steps beside
+        it (:meth:`_follow_runners`). Fills ``last_health``; the relocaliser's build (once),
+        query and runner-up times go to ``timing`` (ms, within "estimate")."""
         c = self.config
         f = self._inliers(ref, frame, est)
-        alarm = bool(f < c.health_min_inliers)  # nan (no evidence) is no alarm
+        alarm = bool(f < self.health_threshold)  # nan (no evidence) is no alarm
         relocalized = False
+        if self._runners is not None and not alarm:
+            t0 = time.perf_counter()
+            est, switched = self._follow_runners(frame, est, f, control)
+            relocalized = switched
+            timing["runners"] = (time.perf_counter() - t0) * 1e3
+        elif alarm:
+            self._runners = None
         if alarm and c.recover:
             t0 = time.perf_counter()
             if self._relocalizer is None:
@@ -396,19 +413,83 @@ class _PredictionToObservation:
                 timing["relocalizer_build"] = (time.perf_counter() - t0) * 1e3
             t1 = time.perf_counter()
             best, best_f = None, (f if not math.isnan(f) else -math.inf)
-            for hyp in list(self._relocalizer.localize(frame))[: c.relocalize_top]:
+            passed = []
+            # with runner-ups the relocaliser must report its ambiguity: ask for relocalize_top
+            # hypotheses (navbench.localize returns its config.k = 1 by default)
+            hyps = (self._relocalizer.localize(frame, k=c.relocalize_top) if c.relocalize_keep > 0
+                    else self._relocalizer.localize(frame))
+            for hyp in list(hyps)[: c.relocalize_top]:
                 pose = np.asarray(hyp.pose, dtype=np.float64).reshape(3)
-                href = prepare_reference(self._render(pose), self.intrinsics,
-                                         camera_pose(pose, self.camera_height))
-                cand = align(href, frame, pose, c, self.seed, self.camera_height)
-                fc = self._inliers(href, frame, cand)
-                if fc >= c.health_min_inliers and fc > best_f:
+                cand, fc = self._track_one(frame, pose, pose)
+                if fc >= self.health_threshold:
+                    passed.append((cand, fc))
+                if fc >= self.health_threshold and fc > best_f:
                     best, best_f = cand, fc
             if best is not None:
                 est, relocalized = best, True
+                others = [(p, fc) for p, fc in passed if p is not best]
+                if c.relocalize_keep > 0 and others:
+                    self._runners = {"poses": [p for p, _ in others], "sums": [fc for _, fc in others],
+                                     "main": best_f, "left": int(c.relocalize_keep)}
             timing["relocalize"] = (time.perf_counter() - t1) * 1e3
         self.last_health = {"inliers": f, "alarm": alarm, "relocalized": relocalized}
         return est
+
+    def _track_one(self, frame: Frame, ref_pose: np.ndarray, pred: np.ndarray):
+        """One tracking step of a hypothesis: eq. 7 against the map's render at ``ref_pose``
+        from the prediction ``pred``; ``(pose, inlier fraction)``."""
+        href = prepare_reference(self._render(ref_pose), self.intrinsics,
+                                 camera_pose(ref_pose, self.camera_height))
+        cand = align(href, frame, pred, self.config, self.seed, self.camera_height)
+        return cand, self._inliers(href, frame, cand)
+
+    def _follow_runners(self, frame: Frame, est: np.ndarray, f: float, control):
+        """One step of the runner-up hypotheses of the last relocalisation (option
+        ``relocalize_keep``): each is tracked with the control re-expressed at its own heading
+        and dropped when it fails the test; the inlier fractions are summed per track. After
+        the last step the track with the largest sum wins; returns ``(pose, switched)``."""
+        r = self._runners
+        r["main"] += 0.0 if math.isnan(f) else f
+        keep_p, keep_s = [], []
+        for pose, total in zip(r["poses"], r["sums"]):
+            pred = predict_pose(pose, _control_at(control, self.pose, pose))
+            cand, fc = self._track_one(frame, pose, pred)
+            if fc >= self.health_threshold:
+                keep_p.append(cand)
+                keep_s.append(total + fc)
+        r["poses"], r["sums"], r["left"] = keep_p, keep_s, r["left"] - 1
+        if r["left"] > 0 and keep_p:
+            return est, False
+        self._runners = None
+        if keep_s and max(keep_s) > r["main"]:
+            return keep_p[int(np.argmax(keep_s))], True
+        return est, False
+
+
+def _control_at(control, from_pose: np.ndarray, to_pose: np.ndarray):
+    """``control`` given to an estimator at ``from_pose`` as it applies at ``to_pose``: an
+    absolute direction keeps its offset from the heading; a body-frame increment is unchanged."""
+    from navbench.sim.dynamics import Control
+    from navbench.track.odometry import OdometryIncrement
+
+    if isinstance(control, OdometryIncrement):
+        return control
+    turn, direction, speed = ((control.turn, control.direction, control.speed)
+                              if isinstance(control, Control) else tuple(control))
+    return Control(float(turn), float(direction) - float(from_pose[2]) + float(to_pose[2]), float(speed))
+
+
+def _health_threshold(cfg: TrackerConfig, given: float | None) -> float:
+    """The alarm threshold of ``cfg`` (``given``: the calibrated one for ``"auto"``)."""
+    if cfg.health_min_inliers != "auto":
+        return float(cfg.health_min_inliers)
+    if given is None or not 0 <= float(given) <= 1:
+        if not (cfg.health or cfg.recover):
+            return math.nan  # never read
+        raise TrackingError("health_min_inliers='auto' needs the map's calibrated threshold "
+                            "(health_threshold=, navbench.pipeline.stages.health; track-eval "
+                            f"computes it), got {given!r}")
+    return float(given)
 
 
 class PredictionToObservationTracker(_PredictionToObservation):

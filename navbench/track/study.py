@@ -68,6 +68,12 @@ class TrackingStudyConfig:
     # frame (required with kidnapping). Left out of the stage's cache key at these defaults.
     kidnap_every: int = 0
     odometry: str = "world"
+    # what the recording does after a collision (COLLISION_MODES): "freeze", appendix D's rule
+    # (no further movement: the rest of the trajectory stands still while its controls still
+    # command motion), or "stop" (the colliding step does not move the robot and its control
+    # records no motion, as a bumper and stalled wheels would; the recording goes on to a new
+    # waypoint). Left out of the key at "freeze".
+    collisions: str = "freeze"
 
     def __post_init__(self):
         if self.trajectories < 1 or self.seeds < 1 or self.steps < 1:
@@ -86,9 +92,16 @@ class TrackingStudyConfig:
         if self.odometry not in ODOMETRY_MODES:
             raise ConfigError(f"--odometry: expected one of {', '.join(ODOMETRY_MODES)}, "
                               f"got {self.odometry!r}")
+        if self.collisions not in COLLISION_MODES:
+            raise ConfigError(f"--collisions: expected one of {', '.join(COLLISION_MODES)}, "
+                              f"got {self.collisions!r}")
         if self.kidnap_every and self.odometry != "body":
             raise ConfigError("--kidnap-every needs --odometry body (world-frame controls would "
                               "tell the estimators the new true heading)")
+
+
+#: What a trajectory recording does after a collision (:class:`TrackingStudyConfig.collisions`).
+COLLISION_MODES = ("freeze", "stop")
 
 
 @dataclass
@@ -106,7 +119,8 @@ class Trajectory:
 
 def record_trajectories(level, count: int, steps: int, noise: str = "tracking", seed: int = 0,
                         clearance: float = 1.2 * AGENT_LENGTH,
-                        waypoint_range: float = 3.0, kidnap_every: int = 0) -> list[Trajectory]:
+                        waypoint_range: float = 3.0, kidnap_every: int = 0,
+                        collisions: str = "freeze") -> list[Trajectory]:
     """Drive the simulator (no camera) ``count`` times for ``steps`` controls; see the module doc.
 
     Trajectory ``i`` uses simulator seed ``seed * 100003 + i``; start poses and waypoints come
@@ -114,6 +128,10 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
     ``kidnap_every`` N > 0 the true pose is teleported after every N-th control to a free pose
     (clearance ``clearance``, uniform heading) drawn from its own stream
     ``np.random.default_rng([seed, i, KIDNAP_SALT])`` (:mod:`navbench.track.kidnap`).
+    ``collisions="stop"``: a colliding step leaves the robot at its previous pose and records
+    no motion for it (a bumper stops the robot, its wheels stall; the collision flag is cleared,
+    the noise stream goes on, a new waypoint is drawn) instead of freezing it for the rest of
+    the trajectory while its controls still command motion; ``collided`` still reports it.
     """
     from navbench.track.kidnap import KIDNAP_SALT, kidnap_indices
 
@@ -144,6 +162,11 @@ def record_trajectories(level, count: int, steps: int, noise: str = "tracking", 
             poses.append(res.pose.copy())
             if res.collided:  # should not happen with the wide clearance; the record stays valid
                 target = None
+                if collisions == "stop":  # the bumper stops the robot where it was, its
+                    collided = True        # wheels stall: the odometry reads no motion
+                    sim.reset(poses[-2])
+                    poses[-1] = sim.pose.copy()
+                    controls[-1] = (0.0, controls[-1][1], 0.0)
             if t + 1 in kidnaps:
                 collided |= bool(sim.collided)
                 xy = sample_free_points(level, krng, 1, clearance)[0]
@@ -177,12 +200,15 @@ def _pick_waypoint(level, wide, xy, rng, clearance, max_range, tries: int = 200)
 
 def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyConfig(),
                        trajectories: list[Trajectory] | None = None,
-                       progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                       progress: Callable[[int, int], None] | None = None,
+                       health_thresholds: dict[str, float] | None = None) -> dict[str, Any]:
     """Replay recorded trajectories through every estimator; see the module doc.
 
     ``vmap``: the map the map-based estimators use (``None`` is allowed when none of them is
     selected). ``trajectories``: pre-recorded ones (default: :func:`record_trajectories` with
     the config). ``progress(done, total)`` is called after each trajectory.
+    ``health_thresholds``: per estimator name, the map's calibrated alarm threshold for the
+    option ``health_min_inliers="auto"`` (constructor argument ``health_threshold``).
 
     Returns a dict::
 
@@ -205,14 +231,17 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     if trajectories is None:
         trajectories = record_trajectories(level, config.trajectories, config.steps, config.noise,
                                            config.seed, config.waypoint_clearance,
-                                           config.waypoint_range, config.kidnap_every)
+                                           config.waypoint_range, config.kidnap_every,
+                                           config.collisions)
     camera = RaycastCamera(level, intr, config.camera_height)
     opts = config.estimator_options or {}
     runs = []  # (name, seed, estimator)
     for name in config.estimators:
         for s in range(config.seeds):
+            extra = {"health_threshold": health_thresholds[name]} \
+                if health_thresholds and name in health_thresholds else {}
             est = make_estimator(name, vmap=vmap, intrinsics=intr, camera_height=config.camera_height,
-                                 renderer=None, seed=s, **dict(opts.get(name, {})))
+                                 renderer=None, seed=s, **extra, **dict(opts.get(name, {})))
             runs.append((name, s, est))
     if not trajectories or len({len(t.controls) for t in trajectories}) != 1:
         raise ConfigError("the trajectories must be non-empty and of equal length")

@@ -60,6 +60,11 @@ def register(app: typer.Typer) -> None:
                                      "(absolute directions set from the true heading); body: in each "
                                      "estimator's own frame, as a robot's odometry \\[default: world, "
                                      "body with --kidnap-every]."),
+        collisions: str = typer.Option("freeze", "--collisions", help="After a collision while "
+                                       "recording: freeze (appendix D: no further movement for the "
+                                       "rest of the trajectory) or stop (the colliding step does not "
+                                       "move the robot and its odometry reads no motion; it goes on "
+                                       "to a new waypoint)."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option "
                                          "ESTIMATOR.KEY=VALUE (repeatable), e.g. ours.optimizer=adam, "
                                          "emission.steps=100."),
@@ -116,7 +121,7 @@ def register(app: typer.Typer) -> None:
                                   estimators=names, camera=camera, seed=seed, noise=noise,
                                   estimator_options=opts,
                                   trajectory_limits={"emission": emission_trajectories},
-                                  kidnap_every=kidnap_every, odometry=odometry)
+                                  kidnap_every=kidnap_every, odometry=odometry, collisions=collisions)
         from navbench.track.registry import uses_map
 
         needs_map = any(uses_map(n) for n in names)
@@ -149,8 +154,11 @@ def register(app: typer.Typer) -> None:
                     "cached": ref.cached, "camera": camera, "trajectories": trajectories,
                     "steps": steps, "seeds": seeds, "options": opts, "noise": noise,
                     "odometry": odometry, "kidnap_every": kidnap_every, "raw_odometry": raw,
+                    "collisions": collisions,
+                    "collided_trajectories": int(sum(res["trajectories"]["collided"])),
                     "trajectory_limits": cfg.trajectory_limits,
-                    "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}
+                    "wall_s": round(time.perf_counter() - t0, 3), "stored": stored,
+                    "health_thresholds": ref.meta.get("health_thresholds", {})}
             print_json(_finite({**summary, "meta": meta}))
             return
         from rich.table import Table
@@ -170,9 +178,15 @@ def register(app: typer.Typer) -> None:
                       f"Raw odometry (dead reckoning of the body-frame controls): ATE median "
                       f"{raw['ate_m_median']:.4f} m, mean {raw['ate_m_mean']:.4f} m.", markup=False)
         _print_health(summary)
+        for name, th in ref.meta.get("health_thresholds", {}).items():
+            console.print(f"{name}: health_min_inliers=auto calibrated to {th:.3f} on the map's "
+                          f"views", markup=False)
         if stored:
             console.print(f"stored {stored['rows']} new tracking rows (run {stored['run_id']}, "
                           f"study {stored['study_key'][:12]}) in {stored['db']}", markup=False)
+        console.print(f"took {time.perf_counter() - t0:.1f} s"
+                      + (" (cached study: step times are those of the run that computed it)"
+                         if ref.cached else ""), markup=False)
 
 
 def _finite(obj):

@@ -34,6 +34,8 @@ module                 holds
 ``navigation``         run-navigation (the parent loop; workers: :mod:`navbench.pipeline.worker`)
 ``score``, ``report``  the score table and the HTML report of a set of cells
 ``track_eval``         the tracking study (appendix E) on a fitted, true or given map
+``health``             health-calibration: a map's own health-test threshold
+                       (:class:`HealthCalibrationConfig`, ``health_min_inliers = "auto"``)
 =====================  ==========================================================
 
 This package re-exports each module's public names, so ``from navbench.pipeline.stages import
@@ -46,6 +48,8 @@ from navbench.pipeline.stages.grid import (ChunkSpec, Cell, EpisodeJob, Navigati
                                            resolved_episode_config)
 from navbench.pipeline.stages.imported import (FitViewsConfig, ImportOptions, fit_views_stage, resolve_views,
                                                store_views_stage)
+from navbench.pipeline.stages.health import (HealthCalibrationConfig, calibration_views,
+                                             health_calibration_stage, study_health_thresholds)
 from navbench.pipeline.stages.inputs import LevelInputs, build_level_inputs, fit_map_for_profile
 from navbench.pipeline.stages.level import LevelConfig, load_level_ref, make_level_stage
 from navbench.pipeline.stages.maps import (MAP_METRIC_KEYS, FitMapConfig, TrueMapConfig, fit_map_stage,
@@ -66,4 +70,5 @@ __all__ = [
     "resolved_episode_config", "run_navigation_stage", "sample_tasks_stage", "score_stage",
     "study_level", "study_map", "track_eval_stage", "true_map_stage", "verified",
     "FitViewsConfig", "ImportOptions", "fit_views_stage", "resolve_map", "resolve_views", "store_views_stage",
+    "HealthCalibrationConfig", "calibration_views", "health_calibration_stage", "study_health_thresholds",
 ]

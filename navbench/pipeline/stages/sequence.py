@@ -156,8 +156,9 @@ class SequenceResult:
 
 
 def run_tracking(seq, model, map_key: str | None, cfg: TrackSequenceConfig,
-                 sequence_label: str | None = None) -> SequenceResult:
-    """Track the read sequence ``seq`` on ``model`` (``None`` for estimators without a map)."""
+                 sequence_label: str | None = None, health_threshold: float | None = None) -> SequenceResult:
+    """Track the read sequence ``seq`` on ``model`` (``None`` for estimators without a map);
+    ``health_threshold``: the map's calibrated one for ``health_min_inliers="auto"``."""
     from navbench.nav.metrics import location_rmse, orientation_rmse, relative_pose_error
     from navbench.track.odometry import integrate
     from navbench.track.registry import make_estimator, uses_map
@@ -170,8 +171,9 @@ def run_tracking(seq, model, map_key: str | None, cfg: TrackSequenceConfig,
     if model is not None and uses_map(cfg.estimator):
         check_map_covers(model, v.poses, f"--map ({map_key[:12] if map_key else 'map'})")
     increments, odo_hash = sequence_odometry(seq, cfg)
+    extra = {} if health_threshold is None else {"health_threshold": health_threshold}
     est = make_estimator(cfg.estimator, vmap=model, intrinsics=v.intrinsics,
-                         camera_height=v.camera_height, seed=int(cfg.seed), **dict(cfg.options))
+                         camera_height=v.camera_height, seed=int(cfg.seed), **extra, **dict(cfg.options))
     track = track_frames(est, v, v.poses[0], increments)
     truth = np.asarray(v.poses, dtype=np.float64)
     odo = integrate(truth[0], increments)

@@ -93,7 +93,7 @@ def _load_map_file(path: Path):
 
 #: Study-config fields added after studies were stored, with the defaults that leave them out of
 #: the cache key (so every study stored before them keeps its key).
-_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world"}
+_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze"}
 
 
 def study_key_config(cfg) -> dict:
@@ -110,7 +110,12 @@ def study_key_config(cfg) -> dict:
 
 def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
     """Run (or fetch) the tracking study ``cfg`` (a :class:`~navbench.track.study.TrackingStudyConfig`)
-    on ``level`` with map ``vmap``; ``ref.meta`` holds the map key."""
+    on ``level`` with map ``vmap``; ``ref.meta`` holds the map key and the calibrated health
+    thresholds of the estimators with ``health_min_inliers="auto"`` (their calibration keys
+    join the study's inputs; :mod:`navbench.pipeline.stages.health`)."""
+    from navbench.pipeline.stages.health import study_health_thresholds
+
+    thresholds, calibration_keys = study_health_thresholds(ctx, cfg, level, vmap)
 
     def compute(d: Path) -> None:
         from navbench.track.study import run_tracking_study
@@ -118,9 +123,13 @@ def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
         model = vmap.load() if vmap.load is not None else None
         update = ctx.progress(f"tracking {level.name}", cfg.trajectories)
         results = run_tracking_study(load_level_ref(level), model, cfg,
-                                     progress=lambda done, total: update(done))
+                                     progress=lambda done, total: update(done),
+                                     health_thresholds=thresholds)
         save_study(results, d / STUDY_FILE)
 
     path, key, cached = ctx.run("track-eval", study_key_config(cfg),
-                                {"level": level.key, "map": vmap.key}, compute)
-    return Ref("track-eval", key, path / STUDY_FILE, cached, level.name, {"map_key": vmap.key})
+                                {"level": level.key, "map": vmap.key, **calibration_keys}, compute)
+    meta = {"map_key": vmap.key}
+    if thresholds:
+        meta["health_thresholds"] = thresholds
+    return Ref("track-eval", key, path / STUDY_FILE, cached, level.name, meta)

@@ -1,0 +1,34 @@
+"""Bad input to ``ours``'s health threshold and runner-up options (``-o
+ours.health_min_inliers=...``, ``-o ours.relocalize_keep=...``): one ``error:`` line naming
+the option and the value."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.bad_input.conftest import assert_clean_error, nb
+
+
+@pytest.mark.parametrize("option, value, shown", [
+    ("health_min_inliers", "sometimes", "'sometimes'"), ("health_min_inliers", "1.5", "1.5"),
+    ("health_min_inliers", "true", "True"), ("relocalize_keep", "abc", "'abc'"),
+    ("relocalize_keep", "-2", "-2"),
+])
+def test_bad_health_options(tmp_path, monkeypatch, option, value, shown):
+    from navbench.levelio import save_level
+    from tests.track.synth import small_level
+
+    monkeypatch.chdir(tmp_path)
+    path = save_level(small_level(), tmp_path / "track-room.json")
+    res = nb("track-eval", str(path), "--estimators", "ours", "--map", "true", "--steps", "2",
+             "--trajectories", "1", "--no-store", "-o", "ours.health=true",
+             "-o", f"ours.{option}={value}")
+    assert_clean_error(res, option, shown)
+
+
+def test_bad_collisions_mode_is_refused_before_anything_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    res = nb("track-eval", "house-1", "--estimators", "dynamics", "--steps", "3",
+             "--trajectories", "1", "--no-store", "--collisions", "bounce")
+    assert_clean_error(res, "--collisions", "bounce")
+    assert not (tmp_path / "results").exists()
