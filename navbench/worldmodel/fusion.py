@@ -1,0 +1,425 @@
+"""Online mapping: fuse tracked RGB-D frames into a voxel world model (issue 15 section 3).
+
+The fused map is a truncated signed distance field (TSDF, Curless and Levoy 1996; KinectFusion,
+Newcombe et al. 2011) kept on a :class:`~navbench.worldmodel.gridspec.GridSpec`, and exposed as a
+:class:`~navbench.worldmodel.grid.VoxelMap` (``FusedMap.vmap``) of the same kind as a fitted map,
+so :func:`~navbench.worldmodel.fastrender.render_map`, the planner's
+:func:`~navbench.worldmodel.grid.occupancy_slice` and the ``ours`` tracker use it unchanged.
+
+Fusing one frame (:func:`fuse_frame`, projective, voxel by voxel)
+    Every cell centre ``p`` is moved into the camera frame of the tracked pose, ``(x_c, y_c,
+    z_c)``, and projected to its nearest pixel ``(round(u), round(v))`` (the pixel convention of
+    :mod:`navbench.geometry`). A cell in front of the camera (``0 < z_c <= max_depth + trunc``)
+    whose pixel is inside the image and valid gets the projective signed distance
+    ``s = depth[v, u] - z_c`` (m, z-depth difference; positive in front of the observed surface,
+    the free space the pixel's ray crossed; negative behind it):
+
+    * ``s < -trunc``: occluded by the surface, not updated (stays as it was, possibly unseen);
+    * otherwise ``t = min(s, trunc) / trunc`` in ``[-1, 1]`` enters the running weighted mean
+      ``D <- (W D + t) / (W + 1)``, ``W <- min(W + 1, max_weight)`` (one count per frame, so free
+      space along each ray and the occupied shell at each hit are both counted);
+    * ``|s| <= colour_band``: the pixel's colour enters the running mean of the cell's colour
+      (weight ``min(W_col + 1, max_weight)``): colour at the hit, on both sides of the surface
+      so that the renderer's trilinear colour at a crossing reads coloured cells only.
+
+Occupancy (the ``occ`` the renderer and the planner read) is ``clip(tau - D / 2, tau - 1/2,
+tau + 1/2)``: the same ramp as :func:`~navbench.worldmodel.grid.voxelize_level` with ``ramp =
+trunc`` (``D = -s / ramp`` there), so ``f`` crosses ``tau`` on the observed surface (sub-cell
+accurate where the surface is flat over the interpolation stencil) and the fusion of exact
+frames approaches the voxelised true geometry. **Unseen cells** (``W = 0``) hold ``tau - 1/2``
+(0 for ``tau = 0.5``): free for the renderer (it never invents a surface in unseen space) and
+free in :func:`~navbench.worldmodel.grid.occupancy_slice` (optimistic planning through the
+unknown, as frontier exploration does); :func:`seen_slice` says which planning cells are known,
+for a planner that must treat the unknown otherwise.
+
+Determinism: the kernel visits cells in a fixed order and each cell reads one pixel, so the same
+frames and poses give bit-identical grids. :func:`fuse_frame_reference` is the pure-numpy
+reference the kernel is tested against.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+
+from navbench.errors import ConfigError
+from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, MAX_RANGE, Frame, Intrinsics
+from navbench.worldmodel.grid import DEFAULT_TAU, VoxelMap, occupancy_slice
+from navbench.worldmodel.gridspec import GridSpec
+
+
+@dataclass(frozen=True)
+class FusionConfig:
+    """How frames are fused (lengths in metres; ``None``: derived from the grid).
+
+    ``trunc``: truncation distance of the signed distance, default the grid's largest cell size
+    (the ramp of :func:`~navbench.worldmodel.grid.voxelize_level`). ``colour_band``: cells this
+    close to the observed surface take its colour, default ``2 * trunc``. ``max_weight``: the
+    running means' weight cap (frames). ``max_depth``: cells farther (z-depth) than this plus
+    ``trunc`` are not updated. ``body_radius``: the cells under the agent's body at each fused
+    pose are marked visited (free by construction) in :func:`seen_slice`; 0 disables.
+    """
+
+    trunc: float | None = None
+    colour_band: float | None = None
+    max_weight: float = 100.0
+    max_depth: float = MAX_RANGE
+    body_radius: float = AGENT_RADIUS
+
+    def __post_init__(self):
+        for name in ("trunc", "colour_band"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise ConfigError(f"fusion {name}: expected a length > 0 m, got {v}")
+        if not (math.isfinite(self.max_weight) and self.max_weight >= 1):
+            raise ConfigError(f"fusion max_weight: expected >= 1, got {self.max_weight}")
+        if not (math.isfinite(self.max_depth) and self.max_depth > 0):
+            raise ConfigError(f"fusion max_depth: expected a length > 0 m, got {self.max_depth}")
+        if not (math.isfinite(self.body_radius) and self.body_radius >= 0):
+            raise ConfigError(f"fusion body_radius: expected a length >= 0 m, got {self.body_radius}")
+
+    def resolved(self, spec: GridSpec) -> tuple[float, float]:
+        """``(trunc, colour_band)`` in metres for grid ``spec``."""
+        trunc = float(self.trunc) if self.trunc is not None else float(spec.size.max())
+        band = float(self.colour_band) if self.colour_band is not None else 2.0 * trunc
+        return trunc, band
+
+
+@dataclass
+class FusedMap:
+    """A TSDF being fused and the :class:`VoxelMap` it defines (see the module docstring).
+
+    ``sdf (nx, ny, nz)`` float32: the running mean ``D`` of ``s / trunc`` in ``[-1, 1]``
+    (positive: free side); ``weight`` float32 its frame count (0: unseen); ``col_weight``
+    float32 the colour's; ``visited (nx, ny)`` bool: cells under the agent's body at a fused pose;
+    ``vmap``: the world model, whose ``occ`` and ``col`` are updated in place by every
+    :meth:`fuse`; ``frames``: how many frames were fused.
+    """
+
+    spec: GridSpec
+    config: FusionConfig
+    sdf: np.ndarray
+    weight: np.ndarray
+    col_weight: np.ndarray
+    visited: np.ndarray
+    vmap: VoxelMap
+    frames: int = 0
+    meta: dict = field(default_factory=dict)
+
+    @classmethod
+    def empty(cls, spec: GridSpec, config: FusionConfig = FusionConfig(),
+              tau: float = DEFAULT_TAU) -> "FusedMap":
+        """An empty (all unseen) map on ``spec``."""
+        from navbench.worldmodel.memory import check_memory
+
+        cells = int(np.prod(spec.shape, dtype=np.int64))
+        check_memory(cells * 40, f"fused map: grid {list(spec.shape)} ({cells} cells)")
+        trunc, band = config.resolved(spec)
+        occ = np.full(spec.shape, tau - 0.5, np.float32)
+        col = np.zeros(spec.shape + (3,), np.float32)
+        meta = {"source": "fusion", "trunc": trunc, "colour_band": band,
+                "step": float(spec.size.max() / 2), "max_range": float(MAX_RANGE)}
+        vmap = VoxelMap(spec, occ, col, tau, meta)
+        return cls(spec, config, np.zeros(spec.shape, np.float32), np.zeros(spec.shape, np.float32),
+                   np.zeros(spec.shape, np.float32), np.zeros(spec.shape[:2], bool), vmap)
+
+    def fresh(self) -> "FusedMap":
+        """An empty map with this one's grid, config and ``tau``."""
+        return FusedMap.empty(self.spec, self.config, self.vmap.tau)
+
+    @property
+    def seen(self) -> np.ndarray:
+        """``(nx, ny, nz)`` bool: cells updated by at least one frame (the known cells)."""
+        return self.weight > 0
+
+    def fuse(self, frame: Frame, pose, intrinsics: Intrinsics,
+             camera_height: float = CAMERA_HEIGHT) -> int:
+        """Fuse ``frame`` seen from planar ``pose`` (:func:`fuse_frame`); returns cells updated."""
+        return fuse_frame(self, frame, pose, intrinsics, camera_height)
+
+
+def _camera(pose, camera_height: float):
+    x, y, theta = (float(v) for v in np.asarray(pose, np.float64).reshape(3))
+    return x, y, float(camera_height), math.cos(theta), math.sin(theta)
+
+
+@nb.njit(cache=True)
+def fuse_kernel(sdf, weight, col_weight, occ, col, lo, size, cam, depth, valid, rgb,
+                fx, fy, cx, cy, trunc, band, max_weight, max_depth, tau):
+    """Fuse one frame into the grids in place (the module docstring's rule); returns cells updated.
+
+    ``lo, size (3,)`` the grid's corner and cell size (m); ``cam = (x, y, z, cos t, sin t)`` the
+    camera centre (m) and heading; ``depth (H, W)`` z-depth (m), ``valid (H, W)``, ``rgb (H, W,
+    3)`` float32; ``trunc``, ``band``, ``max_depth`` (m). Camera frame (OpenCV, planar mount):
+    ``x_c = sin t dx - cos t dy``, ``y_c = -(z - cam_z)``, ``z_c = cos t dx + sin t dy``.
+    """
+    nx, ny, nz = sdf.shape
+    H, W = depth.shape
+    ox, oy, oz, c, s = cam[0], cam[1], cam[2], cam[3], cam[4]
+    zmax = max_depth + trunc
+    count = 0
+    for i in range(nx):
+        dx = lo[0] + (i + 0.5) * size[0] - ox
+        for j in range(ny):
+            dy = lo[1] + (j + 0.5) * size[1] - oy
+            zc = c * dx + s * dy
+            if zc <= 1e-9 or zc > zmax:
+                continue
+            xc = s * dx - c * dy
+            ui = int(math.floor(fx * xc / zc + cx + 0.5))
+            if ui < 0 or ui >= W:
+                continue
+            for k in range(nz):
+                yc = oz - (lo[2] + (k + 0.5) * size[2])
+                vi = int(math.floor(fy * yc / zc + cy + 0.5))
+                if vi < 0 or vi >= H or not valid[vi, ui]:
+                    continue
+                sd = np.float64(depth[vi, ui]) - zc
+                if sd < -trunc:
+                    continue
+                t = min(sd, trunc) / trunc
+                w = np.float64(weight[i, j, k])
+                d = (w * sdf[i, j, k] + t) / (w + 1.0)
+                sdf[i, j, k] = d
+                weight[i, j, k] = min(w + 1.0, max_weight)
+                o = tau - 0.5 * np.float64(sdf[i, j, k])
+                occ[i, j, k] = min(max(o, tau - 0.5), tau + 0.5)
+                if abs(sd) <= band:
+                    wc = np.float64(col_weight[i, j, k])
+                    for ch in range(3):
+                        col[i, j, k, ch] = (wc * col[i, j, k, ch] + rgb[vi, ui, ch]) / (wc + 1.0)
+                    col_weight[i, j, k] = min(wc + 1.0, max_weight)
+                count += 1
+    return count
+
+
+def fuse_frame(fused: FusedMap, frame: Frame, pose, intrinsics: Intrinsics,
+               camera_height: float = CAMERA_HEIGHT) -> int:
+    """Fuse one RGB-D ``frame`` (:class:`~navbench.geometry.Frame`, z-depth) seen by the camera
+    ``intrinsics`` on planar ``pose (x, y, theta)`` (world m, rad) into ``fused`` in place, by
+    :func:`fuse_kernel`; marks the body's cells visited. Returns the number of cells updated."""
+    if frame.depth.shape != intrinsics.shape:
+        raise ConfigError(f"fusion: frame is {frame.depth.shape}, intrinsics say {intrinsics.shape}")
+    spec = fused.spec
+    trunc, band = fused.config.resolved(spec)
+    vm = fused.vmap
+    n = fuse_kernel(fused.sdf, fused.weight, fused.col_weight, vm.occ, vm.col,
+                    np.asarray(spec.lo, np.float64), spec.size, np.array(_camera(pose, camera_height)),
+                    np.ascontiguousarray(frame.depth, np.float32), np.ascontiguousarray(frame.valid, np.bool_),
+                    np.ascontiguousarray(frame.rgb, np.float32), float(intrinsics.fx), float(intrinsics.fy),
+                    float(intrinsics.cx), float(intrinsics.cy), trunc, band,
+                    float(fused.config.max_weight), float(fused.config.max_depth), float(vm.tau))
+    if fused.config.body_radius > 0:
+        fused.visited |= body_cells(spec, pose, fused.config.body_radius)
+    fused.frames += 1
+    return int(n)
+
+
+def body_cells(spec: GridSpec, pose, radius: float) -> np.ndarray:
+    """``(nx, ny)`` bool: the ``xy`` cells whose centre is within ``radius`` (m) of the pose."""
+    xs, ys = spec.centres(0), spec.centres(1)
+    x, y = float(pose[0]), float(pose[1])
+    return ((xs[:, None] - x) ** 2 + (ys[None, :] - y) ** 2) <= radius * radius
+
+
+def fuse_frame_reference(fused: FusedMap, frame: Frame, pose, intrinsics: Intrinsics,
+                         camera_height: float = CAMERA_HEIGHT) -> int:
+    """Pure-numpy :func:`fuse_frame` (vectorised over cells; the tests' reference)."""
+    spec = fused.spec
+    trunc, band = fused.config.resolved(spec)
+    tau = fused.vmap.tau
+    ox, oy, oz, c, s = _camera(pose, camera_height)
+    X, Y, Z = np.meshgrid(spec.centres(0), spec.centres(1), spec.centres(2), indexing="ij")
+    dx, dy = X - ox, Y - oy
+    zc = c * dx + s * dy
+    xc = s * dx - c * dy
+    yc = oz - Z
+    H, W = intrinsics.shape
+    ok = (zc > 1e-9) & (zc <= fused.config.max_depth + trunc)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ui = np.floor(intrinsics.fx * xc / zc + intrinsics.cx + 0.5)
+        vi = np.floor(intrinsics.fy * yc / zc + intrinsics.cy + 0.5)
+    ok &= (ui >= 0) & (ui < W) & (vi >= 0) & (vi < H)
+    ui = np.where(ok, ui, 0).astype(np.int64)
+    vi = np.where(ok, vi, 0).astype(np.int64)
+    ok &= frame.valid[vi, ui]
+    sd = np.where(ok, frame.depth[vi, ui].astype(np.float64) - zc, 0.0)
+    ok &= sd >= -trunc
+    t = np.minimum(sd, trunc) / trunc
+    w = fused.weight.astype(np.float64)
+    d = ((w * fused.sdf + t) / (w + 1.0)).astype(np.float32)
+    fused.sdf[ok] = d[ok]
+    fused.weight[ok] = np.minimum(w + 1.0, fused.config.max_weight)[ok]
+    occ = np.clip(tau - 0.5 * fused.sdf.astype(np.float64), tau - 0.5, tau + 0.5)
+    fused.vmap.occ[ok] = occ[ok]
+    cb = ok & (np.abs(sd) <= band)
+    wc = fused.col_weight.astype(np.float64)[..., None]
+    newc = ((wc * fused.vmap.col + frame.rgb[vi, ui].astype(np.float64)) / (wc + 1.0)).astype(np.float32)
+    fused.vmap.col[cb] = newc[cb]
+    fused.col_weight[cb] = np.minimum(wc[..., 0] + 1.0, fused.config.max_weight)[cb]
+    if fused.config.body_radius > 0:
+        fused.visited |= body_cells(spec, pose, fused.config.body_radius)
+    fused.frames += 1
+    return int(ok.sum())
+
+
+# ------------------------------------------------------------------------------ planning view
+
+def slice_heights(spec: GridSpec, mode: str = "band", z_low: float = 0.05, z_high: float = 1.0,
+                  height: float = CAMERA_HEIGHT) -> np.ndarray:
+    """The ``z`` cell indices :func:`~navbench.worldmodel.grid.occupancy_slice` reads (the two
+    cell centres around every height it evaluates), sorted, unique."""
+    zs = spec.centres(2)
+    if mode == "slice":
+        heights = np.array([height], float)
+    elif mode == "band":
+        if z_high < z_low:
+            raise ConfigError(f"occupancy band: z_high {z_high} < z_low {z_low}")
+        heights = np.concatenate([[z_low, z_high], zs[(zs > z_low) & (zs < z_high)]])
+    else:
+        raise ConfigError(f"unknown occupancy slice mode {mode!r}; choose 'band' or 'slice'")
+    nz = spec.shape[2]
+    u = np.clip((heights - spec.lo[2]) / spec.size[2] - 0.5, 0.0, nz - 1)
+    i0 = np.minimum(np.floor(u).astype(np.int64), nz - 2)
+    t = u - i0
+    ks = np.concatenate([i0[t < 1], (i0 + 1)[t > 0]])
+    return np.unique(ks)
+
+
+def seen_slice(fused: FusedMap, mode: str = "band", z_low: float = 0.05, z_high: float = 1.0,
+               height: float = CAMERA_HEIGHT, min_seen: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(known, occupied)``: ``(nx, ny)`` bool rasters on the planning grid (the cells of
+    :func:`~navbench.worldmodel.grid.occupancy_slice`, index ``[ix, iy]``).
+
+    ``occupied``: ``occupancy_slice(fused.vmap, mode, z_low, z_high, height)`` (``f > tau`` in
+    the body band). ``known``: occupied, or visited (under the agent's body at a fused pose), or
+    at least the fraction ``min_seen`` (default all) of the column's cells that the slice reads
+    (:func:`slice_heights`) have been seen. Free known space is ``known & ~occupied``; the
+    unknown is ``~known`` (the planner decides how to treat it; ``occupied`` alone treats it as
+    free).
+    """
+    if not (0.0 < min_seen <= 1.0):
+        raise ConfigError(f"seen_slice min_seen: expected a fraction in (0, 1], got {min_seen}")
+    occupied, _, _ = occupancy_slice(fused.vmap, mode, z_low, z_high, height)
+    ks = slice_heights(fused.spec, mode, z_low, z_high, height)
+    frac = (fused.weight[:, :, ks] > 0).mean(axis=2)
+    known = (frac >= min_seen - 1e-9) | occupied | fused.visited
+    return known, occupied
+
+
+# ------------------------------------------------------------------------------ rendering
+
+#: Block size (cells) of the online map's skip tables (:func:`block_skip_tables`).
+SKIP_BLOCK = 4
+
+
+@nb.njit(cache=True)
+def _block_flags(occ, tau, b):
+    """``(BX, BY, BZ)`` bool: blocks of ``b^3`` interpolation cells that hold a cell where ``f``
+    may exceed ``tau`` (an interpolation cell with a corner ``> tau``)."""
+    nx, ny, nz = occ.shape
+    bx, by, bz = (nx - 2) // b + 1, (ny - 2) // b + 1, (nz - 2) // b + 1
+    flags = np.zeros((bx, by, bz), np.bool_)
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                if occ[i, j, k] > tau:
+                    for ii in range(max(i - 1, 0), min(i, nx - 2) + 1):
+                        for jj in range(max(j - 1, 0), min(j, ny - 2) + 1):
+                            for kk in range(max(k - 1, 0), min(k, nz - 2) + 1):
+                                flags[ii // b, jj // b, kk // b] = True
+    return flags
+
+
+def _chebyshev(full: np.ndarray, structure: np.ndarray, cap: int) -> np.ndarray:
+    """Chessboard distance (blocks) to the nearest ``full`` block along ``structure``; 0 on full
+    blocks, ``cap`` where there is none (as :func:`~navbench.worldmodel.fastrender.skip_distance`)."""
+    from scipy.ndimage import distance_transform_cdt
+
+    empty = ~full
+    if empty.all():
+        return np.full(full.shape, cap, np.int64)
+    if not empty.any():
+        return np.zeros(full.shape, np.int64)
+    d = distance_transform_cdt(empty, metric=structure).astype(np.int64)
+    d[d < 0] = cap
+    return np.minimum(d, cap)
+
+
+def block_skip_tables(occ: np.ndarray, tau: float, block: int = SKIP_BLOCK,
+                      cap: int = 1000) -> tuple[np.ndarray, np.ndarray]:
+    """Lower bounds of :func:`~navbench.worldmodel.fastrender.skip_distance`'s two tables
+    (``slab=None`` and ``slab=SLAB``), from ``block^3`` blocks of interpolation cells: a cell in a
+    block at Chebyshev distance ``d >= 1`` (blocks) from every non-empty block is at least
+    ``(d - 1) * block + 1`` cells from every non-empty cell. The slab table counts the blocks of
+    the layers within one block of the cell's (``block >= SLAB``, so they cover its ``SLAB``
+    layers). The renderer skips only samples that cannot cross with any lower bound, so images
+    are identical to those of the exact tables; building these costs a few milliseconds
+    instead of the exact tables' ~100 (the online map changes every frame).
+    """
+    from navbench.worldmodel.fastrender import SLAB
+
+    if block < SLAB:
+        raise ConfigError(f"block_skip_tables: block {block} < SLAB {SLAB}")
+    occ = np.ascontiguousarray(occ, np.float32)
+    flags = _block_flags(occ, float(tau), int(block))
+    cube = np.ones((3, 3, 3), bool)
+    d = _chebyshev(flags, cube, cap)
+    near = flags.copy()
+    near[:, :, 1:] |= flags[:, :, :-1]
+    near[:, :, :-1] |= flags[:, :, 1:]
+    layer = np.zeros((3, 3, 3), bool)
+    layer[:, :, 1] = True
+    d2 = _chebyshev(near, layer, cap)
+    shape = np.array([n - 1 for n in occ.shape], np.int64)
+    out = []
+    for t in (d, d2):
+        cells = np.where(t > 0, (t - 1) * block + 1, 0).clip(0, cap).astype(np.int32)
+        out.append(_expand_blocks(cells, shape, int(block)))
+    return out[0], out[1]
+
+
+@nb.njit(cache=True)
+def _expand_blocks(cells, shape, b):
+    """``(shape)`` int32: every cell takes the value of its block in ``cells``."""
+    out = np.empty((shape[0], shape[1], shape[2]), np.int32)
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            for k in range(shape[2]):
+                out[i, j, k] = cells[i // b, j // b, k // b]
+    return out
+
+
+class FusedRenderer:
+    """``render(pose) -> Frame`` of the current state of an online map (the world model's
+    :class:`~navbench.worldmodel.fastrender.FastRenderer`, with :func:`block_skip_tables` rebuilt
+    whenever frames were fused since the last render). Same arguments as ``FastRenderer``."""
+
+    def __init__(self, fused: FusedMap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
+                 max_range: float = MAX_RANGE, step: float | None = None,
+                 parallel: bool | None = None):
+        self.fused = fused
+        self.intrinsics = intrinsics
+        self.camera_height = float(camera_height)
+        self._args = (max_range, step, parallel)
+        self._fr = None
+        self._frames = -1
+
+    def renderer(self):
+        """The :class:`FastRenderer` of the map as it is now."""
+        from navbench.worldmodel.fastrender import FastRenderer
+
+        f = self.fused
+        if self._fr is None or self._frames != f.frames:
+            tables = block_skip_tables(f.vmap.occ, f.vmap.tau)
+            max_range, step, parallel = self._args
+            self._fr = FastRenderer(f.vmap, self.intrinsics, self.camera_height, max_range, step,
+                                    parallel, skip_tables=tables)
+            self._frames = f.frames
+        return self._fr
+
+    def render(self, pose) -> Frame:
+        return self.renderer().render(pose)
