@@ -72,8 +72,12 @@ def test_wall_at_known_distance_occupied_there_free_before():
     # behind the surface too (beyond trunc they stay unseen for the occupancy)
     band = view & (np.abs(s) <= 2 * trunc)
     assert (band & ~seen).sum() > 0
-    assert np.all(fused.vmap.col[band] == COLOUR)
-    assert np.all(fused.vmap.col[~band] == 0)
+    assert np.all(fused.vmap.col[band] == COLOUR) and np.all(fused.col_weight[band] == 1)
+    assert np.all(fused.vmap.col[np.abs(s) > 2 * trunc] == 0)
+    # just outside the image: a provisional colour (weight 0) where the stencil may reach
+    margin = ~view & (np.abs(s) <= 2 * trunc) & np.any(fused.vmap.col != 0, axis=-1)
+    assert margin.sum() > 0 and np.all(fused.col_weight[margin] == 0)
+    assert np.all(fused.vmap.col[margin] == COLOUR) and not fused.seen[margin].any()
 
 
 def test_wall_slice_and_rendered_depth_are_exact():
