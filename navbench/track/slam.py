@@ -7,7 +7,7 @@
   pose ``pose0``, then the tracker is reset;
 * ``update(control, frame)``: the tracker aligns ``frame`` against the map built so far (eq. 7
   against the map rendered at its previous estimate ``z*_{t-1}``, through
-  :class:`~navbench.worldmodel.fusion.FusedRenderer`), then ``frame`` is fused at the new
+  :class:`~navbench.worldmodel.fusion_render.FusedRenderer`), then ``frame`` is fused at the new
   estimate ``z*_t``. The estimate never sees the true pose.
 
 The fusion time of each step is reported as ``last_timing["fuse"]`` and counted in
@@ -27,7 +27,8 @@ import numpy as np
 
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_HEIGHT, Frame, Intrinsics
-from navbench.worldmodel.fusion import FusedMap, FusedRenderer
+from navbench.worldmodel.fusion import FusedMap
+from navbench.worldmodel.fusion_render import FusedRenderer
 
 #: Map-based estimators that do not render through the ``renderer`` argument.
 RENDERER_IGNORED = ("emission",)

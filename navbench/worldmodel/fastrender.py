@@ -386,7 +386,7 @@ class FastRenderer:
     when numba may use more than one thread (pool workers use one).
     ``skip_tables``: ``(dist, dist2)`` to use instead of :func:`skip_distance`'s (lower bounds
     of them render identical images; the online map's cheaper tables,
-    :func:`navbench.worldmodel.fusion.block_skip_tables`).
+    :func:`navbench.worldmodel.fusion_render.block_skip_tables`).
     """
 
     def __init__(self, vmap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,

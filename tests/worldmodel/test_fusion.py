@@ -10,13 +10,12 @@ from navbench.geometry import HALF_CAMERA, Frame
 from navbench.worldmodel.fastrender import FastRenderer, skip_distance, SLAB
 from navbench.worldmodel.fusion import (
     FusedMap,
-    FusedRenderer,
     FusionConfig,
-    block_skip_tables,
     fuse_frame_reference,
     seen_slice,
     slice_heights,
 )
+from navbench.worldmodel.fusion_render import FusedRenderer, block_skip_tables
 from navbench.worldmodel.grid import cell_tolerance_scores, grid_for_level, occupancy_slice
 from navbench.worldmodel.gridspec import GridSpec
 
