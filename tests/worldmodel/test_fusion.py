@@ -250,3 +250,18 @@ def test_distance_scale_fast_equals_reference_and_is_exact_on_planes(house_walk)
     want = np.clip(yc, 0.3, np.linalg.norm(rays, axis=-1))  # height difference = yc * z-depth difference
     np.testing.assert_allclose(g[v, u], want[v, u], rtol=1e-4)
     assert (want[v, u] > 0.3).mean() > 0.3
+
+
+def test_seen_slice_single_height_reads_the_two_cells_around_it():
+    fused = FusedMap.empty(SPEC)
+    fused.fuse(wall_frame(), POSE, HALF_CAMERA)
+    # cell centres 0.05, 0.15, ...: the camera height 0.5 lies between the centres 0.45 and 0.55
+    assert list(slice_heights(SPEC, "slice", height=0.5)) == [4, 5]
+    known, occupied = seen_slice(fused, "slice")
+    occ2d, _, _ = occupancy_slice(fused.vmap, "slice")
+    assert np.array_equal(occupied, occ2d)
+    assert np.array_equal(known, fused.seen[:, :, [4, 5]].all(axis=2) | occupied | fused.visited)
+    # the single height sees more of the floor-level blind zone than the body band
+    assert known.sum() > seen_slice(fused)[0].sum()
+    with pytest.raises(ConfigError, match="mode"):
+        seen_slice(fused, "cube")
