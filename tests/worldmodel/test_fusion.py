@@ -66,7 +66,7 @@ def test_wall_at_known_distance_occupied_there_free_before():
     assert np.all(occ[view & (s > trunc)] == 0.0)
     ramp = view & (np.abs(s) <= trunc)
     np.testing.assert_allclose(occ[ramp], 0.5 - 0.5 * s[ramp] / trunc, atol=1e-6)
-    assert np.all(occ[~seen] == 0.5)  # unseen: tau, neutral (never occupied)
+    assert np.all(occ[~seen] == np.float32(0.5 - 2.0 ** -20))  # unseen: neutral, never occupied
     # colour at the hit: the cells within the colour band (2 trunc) take the wall's colour,
     # behind the surface too (beyond trunc they stay unseen for the occupancy)
     band = view & (np.abs(s) <= 2 * trunc)
@@ -165,6 +165,19 @@ def test_exact_frames_reproduce_the_level_slice(house_walk):
     assert k.mean() > 0.15  # the walk saw a good part of the house
     precision, recall = cell_tolerance_scores(o & k, t & k)
     assert precision >= 0.95 and recall >= 0.95, (precision, recall)
+
+
+def test_column_slice_equals_occupancy_slice_on_a_fused_map(house_walk):
+    from navbench.worldmodel.fusion import column_slice
+
+    level, frames = house_walk
+    fused = FusedMap.empty(grid_for_level(level))
+    for pose, frame in frames[:80]:
+        fused.fuse(frame, pose, HALF_CAMERA)
+    for mode in ("band", "slice"):
+        occ2d, _, _ = occupancy_slice(fused.vmap, mode)
+        assert occ2d.any() and np.array_equal(column_slice(fused.vmap, mode), occ2d), mode
+    assert np.array_equal(seen_slice(fused)[1], occupancy_slice(fused.vmap)[0])
 
 
 def test_fusion_is_deterministic(house_walk):

@@ -94,12 +94,13 @@ def online_study_map(level: Ref) -> StudyMap:
     """``--map online``: an empty fused map on the level's default grid; its key hashes the
     grid spec and the fusion settings (so a change of either is another study)."""
     from navbench.config import config_hash
-    from navbench.worldmodel.fusion import FusedMap, FusionConfig
+    from navbench.worldmodel.fusion import FUSION_VERSION, FusedMap, FusionConfig
     from navbench.worldmodel.grid import grid_for_level
 
     lvl = load_level_ref(level)
     spec, fcfg = grid_for_level(lvl), FusionConfig()
-    key = "online-" + config_hash({"spec": spec.to_dict(), "fusion": fcfg})[:16]
+    key = "online-" + config_hash({"spec": spec.to_dict(), "fusion": fcfg,
+                                   "version": FUSION_VERSION})[:16]
     return StudyMap("online", key, lambda: FusedMap.empty(spec, fcfg))
 
 
