@@ -33,6 +33,8 @@ PINNED_METRIC_KEYS = [
     "e2e_episodes_per_min", "e2e_steps_per_s",
     # issue 17: appended
     "agent_step_ms_half", "agent_step_ms_paper", "e2e_episodes_per_min_paper",
+    # issue 15: appended
+    "fusion_ms_half", "fusion_ms_paper",
 ]
 #: The other top-level keys of the result (host, map, config, per-key tables ...).
 PINNED_OTHER_KEYS = {
@@ -52,6 +54,7 @@ PINNED_PROGRESS = [
     *(f"tracking {p} (paper)" for p in ("ours", "ours_adam", "ours_gauss_newton", "no_map", "emission")),
     "control step (half)", "control step (paper)", "end to end (2 tasks x 1 estimators, 2 workers)",
     "agent step (half)", "agent step (paper)", "end to end (2 tasks x 1 estimators, 2 workers), paper camera",
+    "online fusion (half)", "online fusion (paper)",
     "done",
 ]
 
@@ -80,7 +83,7 @@ def fake_timers(monkeypatch):
         return timer
 
     for name in ("time_sim_frame", "time_sim_step", "time_map_render", "time_diff_render",
-                 "time_fit_step", "time_plan", "time_tracking", "time_control_step"):
+                 "time_fit_step", "time_plan", "time_tracking", "time_control_step", "time_fusion"):
         monkeypatch.setattr(timers, name, fake(name))
     monkeypatch.setattr(timers, "record_walk", lambda *a, **k: "walk")
     monkeypatch.setattr(timers, "bench_tasks", lambda *a, **k: [])

@@ -427,6 +427,14 @@ TABLE: tuple[Measurement, ...] = (
                        "map render + A* when (re)planning; mid noise") for cam in CAMERA_NAMES),
     Measurement("e2e_episodes_per_min_paper", "end to end", "episodes per minute, paper camera",
                 _e2e("episodes", "paper"), unit="episodes/min", needs=_e2e_why),
+    # issue 15: online mapping, one frame fused into the level's default grid
+    *(Measurement(f"fusion_ms_{cam}", "world model", f"online fusion of one frame, {cam}",
+                  lambda ctx, n, cam=cam: timers.time_fusion(ctx.use(f"walk_{cam}"), ctx.level, CAMERAS[cam],
+                                                             n, TRACK_WARMUP, ctx.budget),
+                  uses=(f"walk_{cam}",), progress=f"online fusion ({cam})",
+                  note="fuse_frame (TSDF, navbench.worldmodel.fusion) at the true pose along the "
+                       "tracking walk, 200 x 200 x 20 grid of the level; issue 15 target <= 10 ms "
+                       "at the half camera") for cam in CAMERA_NAMES),
 )
 
 

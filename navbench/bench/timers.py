@@ -280,6 +280,22 @@ def time_tracking(walk: Walk, vmap, intrinsics: Intrinsics, estimator: str, opti
     return timed_loop(call, repeats, warmup, budget_s)
 
 
+def time_fusion(walk: Walk, level, intrinsics: Intrinsics, repeats: int = 10, warmup: int = 2,
+                budget_s: float | None = None) -> list[float]:
+    """One online-mapping step (issue 15): ``fuse_frame`` of the walk's next frame at its true
+    pose into a map on the level's default grid (:mod:`navbench.worldmodel.fusion`), the walk's
+    start frame fused first, the first ``warmup`` steps untimed."""
+    from navbench.worldmodel.fusion import FusedMap
+    from navbench.worldmodel.grid import grid_for_level
+
+    if len(walk.frames) < warmup + repeats:
+        raise ConfigError(f"the walk has {len(walk.frames)} steps, {warmup + repeats} needed")
+    fused = FusedMap.empty(grid_for_level(level))
+    fused.fuse(walk.frame0, walk.pose0, intrinsics, CAMERA_HEIGHT)
+    return timed_loop(lambda k: _ms(lambda: fused.fuse(walk.frames[k], walk.poses[k], intrinsics,
+                                                       CAMERA_HEIGHT)), repeats, warmup, budget_s)
+
+
 # ---------------------------------------------------------------------------------- control step
 
 def bench_tasks(level, vmap, count: int, seed: int = 0) -> list:

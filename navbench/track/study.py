@@ -205,7 +205,8 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     """Replay recorded trajectories through every estimator; see the module doc.
 
     ``vmap``: the map the map-based estimators use (``None`` is allowed when none of them is
-    selected). ``trajectories``: pre-recorded ones (default: :func:`record_trajectories` with
+    selected); an empty :class:`~navbench.worldmodel.fusion.FusedMap` makes them track and map
+    together from the start pose (:mod:`navbench.track.slam`, issue 15). ``trajectories``: pre-recorded ones (default: :func:`record_trajectories` with
     the config). ``progress(done, total)`` is called after each trajectory.
     ``health_thresholds``: per estimator name, the map's calibrated alarm threshold for the
     option ``health_min_inliers="auto"`` (constructor argument ``health_threshold``).
@@ -225,7 +226,7 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     from navbench.sim.dynamics import Control
     from navbench.nav.metrics import location_rmse
     from navbench.track.kidnap import body_control, dead_reckoning
-    from navbench.track.registry import make_estimator
+    from navbench.track.registry import make_estimator, uses_map
 
     intr = camera_by_name(config.camera)
     if trajectories is None:
@@ -235,13 +236,20 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
                                            config.collisions)
     camera = RaycastCamera(level, intr, config.camera_height)
     opts = config.estimator_options or {}
+    online = _is_online(vmap)  # issue 15: each map-based run tracks and maps on its own copy
     runs = []  # (name, seed, estimator)
     for name in config.estimators:
         for s in range(config.seeds):
             extra = {"health_threshold": health_thresholds[name]} \
                 if health_thresholds and name in health_thresholds else {}
-            est = make_estimator(name, vmap=vmap, intrinsics=intr, camera_height=config.camera_height,
-                                 renderer=None, seed=s, **extra, **dict(opts.get(name, {})))
+            if online and uses_map(name):
+                from navbench.track.slam import online_estimator
+
+                est = online_estimator(name, vmap, intr, config.camera_height, s,
+                                       **extra, **dict(opts.get(name, {})))
+            else:
+                est = make_estimator(name, vmap=vmap, intrinsics=intr, camera_height=config.camera_height,
+                                     renderer=None, seed=s, **extra, **dict(opts.get(name, {})))
             runs.append((name, s, est))
     if not trajectories or len({len(t.controls) for t in trajectories}) != 1:
         raise ConfigError("the trajectories must be non-empty and of equal length")
@@ -321,6 +329,14 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
         },
         "estimators": out_est,
     }
+
+
+def _is_online(vmap) -> bool:
+    """``vmap`` is an online map (:class:`~navbench.worldmodel.fusion.FusedMap`): the map-based
+    estimators track and map together (:mod:`navbench.track.slam`), each from empty."""
+    from navbench.worldmodel.fusion import FusedMap
+
+    return isinstance(vmap, FusedMap)
 
 
 def _config_dict(config: TrackingStudyConfig) -> dict:

@@ -384,11 +384,14 @@ class FastRenderer:
     ``parallel``: rows on numba's threads; ``None`` = only for images of at least
     :data:`PARALLEL_MIN_PIXELS` pixels (on a busy machine one thread is often faster), and only
     when numba may use more than one thread (pool workers use one).
+    ``skip_tables``: ``(dist, dist2)`` to use instead of :func:`skip_distance`'s (lower bounds
+    of them render identical images; the online map's cheaper tables,
+    :func:`navbench.worldmodel.fusion_render.block_skip_tables`).
     """
 
     def __init__(self, vmap, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
                  max_range: float = MAX_RANGE, step: float | None = None,
-                 parallel: bool | None = None):
+                 parallel: bool | None = None, skip_tables: tuple | None = None):
         if parallel is None:  # one numba thread (a pool worker): the serial kernel, same pixels
             parallel = (intrinsics.width * intrinsics.height >= PARALLEL_MIN_PIXELS
                         and nb.get_num_threads() > 1)
@@ -399,8 +402,11 @@ class FastRenderer:
         self.step = map_step(vmap, step)
         self.n = int(round(max_range / self.step))
         self.rays = _rays(intrinsics)
-        self.dist = skip_distance(vmap.occ, vmap.tau)
-        self.dist2 = skip_distance(vmap.occ, vmap.tau, slab=SLAB)
+        if skip_tables is None:
+            self.dist = skip_distance(vmap.occ, vmap.tau)
+            self.dist2 = skip_distance(vmap.occ, vmap.tau, slab=SLAB)
+        else:  # (dist, dist2) given: any lower bounds of skip_distance's tables render the same
+            self.dist, self.dist2 = skip_tables
         spec = vmap.spec
         self._lo = np.asarray(spec.lo, np.float64)
         self._inv = 1.0 / spec.size

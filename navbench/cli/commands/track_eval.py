@@ -47,7 +47,9 @@ def register(app: typer.Typer) -> None:
         camera: str = typer.Option("half", "--camera", help="half or paper."),
         map_: str = typer.Option("fit", "--map", help="fit: the profile's fitted world model (built "
                                  "if missing, as in the paper's study); true: the voxelised true "
-                                 "geometry (an upper bound); or a map file (map.npz format)."),
+                                 "geometry (an upper bound); online: no prior map, the map-based "
+                                 "estimators track and map together from the start pose; or a map "
+                                 "file (map.npz format)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
                                                                           "build the map with --map fit")),
         seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
@@ -99,6 +101,11 @@ def register(app: typer.Typer) -> None:
         names = tuple(parse_list(estimators))
         parsed_options = _parse_options(option)
         _check_estimators(names, parsed_options)  # before the level is built or anything recorded
+        if map_ == "online":
+            from navbench.track.slam import check_online
+
+            for n in names:
+                check_online(n)
         prof = load_profile(profile) if map_ == "fit" else None
         from navbench.errors import ConfigError
         from navbench.pipeline.profiles import NOISE_NAMES

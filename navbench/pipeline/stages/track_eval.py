@@ -8,6 +8,9 @@ level's content key and the map's key. The map is one of
 * ``fit``: the profile's fitted world model (collect-views -> fit-map, built if missing), the
   map the paper's tracking study runs on;
 * ``true``: the level's true geometry voxelized on the default grid (an upper bound);
+* ``online``: no prior map; the map-based estimators track and map together, each fusing its
+  frames at its own estimates into an empty map on the level's default grid (the level's box,
+  nothing of its content; :mod:`navbench.track.slam`), keyed by the grid and fusion settings;
 * a path to a map file (the ``map.npz`` format, or a world-model plugin's), keyed by its
   content hash.
 
@@ -30,7 +33,7 @@ from navbench.pipeline.stages.inputs import fit_map_for_profile
 from navbench.pipeline.stages.level import LevelConfig, load_level_ref, make_level_stage
 
 #: The ``--map`` choices besides a file path.
-MAP_CHOICES = ("fit", "true")
+MAP_CHOICES = ("fit", "true", "online")
 
 
 @dataclass(frozen=True)
@@ -73,6 +76,8 @@ def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
             return voxelize_level(load_level_ref(level))
 
         return StudyMap(spec, "true", load_true)
+    if spec == "online":
+        return online_study_map(level)
     if spec == "fit":
         if profile is None:
             raise ConfigError("--map fit: needs a profile (its fit settings)")
@@ -83,6 +88,20 @@ def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
         raise ConfigError(f"--map: no such map file {spec!r} (or use {' or '.join(MAP_CHOICES)})")
     model = _load_map_file(path)  # a bad file fails here, before any trajectory is recorded
     return StudyMap(spec, model.content_hash(), lambda: model)
+
+
+def online_study_map(level: Ref) -> StudyMap:
+    """``--map online``: an empty fused map on the level's default grid; its key hashes the
+    grid spec and the fusion settings (so a change of either is another study)."""
+    from navbench.config import config_hash
+    from navbench.worldmodel.fusion import FUSION_VERSION, FusedMap, FusionConfig
+    from navbench.worldmodel.grid import grid_for_level
+
+    lvl = load_level_ref(level)
+    spec, fcfg = grid_for_level(lvl), FusionConfig()
+    key = "online-" + config_hash({"spec": spec.to_dict(), "fusion": fcfg,
+                                   "version": FUSION_VERSION})[:16]
+    return StudyMap("online", key, lambda: FusedMap.empty(spec, fcfg))
 
 
 def _load_map_file(path: Path):
