@@ -85,6 +85,10 @@ class TrackerConfig:
     recover: bool = False
     relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
     relocalize_top: int = 3  # hypotheses verified per relocalisation
+    # ours only (issue 17): render the map's reference xhat_{t-1} at this fraction of the camera's
+    # resolution (Intrinsics.scaled; 0.5: 160 x 120 at the paper camera) and project the observed
+    # pixels into it (fewer rays, the same eq. 7); 1.0: the camera's own. Not with health/recover
+    reference_scale: float = 1.0
 
     def __post_init__(self):
         if self.optimizer not in OPTIMIZERS:
@@ -100,6 +104,10 @@ class TrackerConfig:
             raise TrackingError("health_tol must be > 0 and health_min_inliers within [0, 1]")
         if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
             raise TrackingError("health_pixels and relocalize_top must be >= 1")
+        if not 0 < self.reference_scale <= 1:
+            raise TrackingError(f"option reference_scale must be within (0, 1], got {self.reference_scale!r}")
+        if self.reference_scale != 1 and (self.health or self.recover):
+            raise TrackingError("option reference_scale < 1 cannot be combined with health or recover")
 
 
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:
@@ -143,6 +151,14 @@ class Reference(NamedTuple):
     # a lazy reference (navbench.worldmodel.fastrender.LazyFrame) whose fill(points, ok, Trels)
     # renders the pixels the kernel will read before it reads them; None: rgb/depth/valid are full
     lazy: Any = None
+    # the observation's intrinsics when they differ from the reference's (option
+    # reference_scale); None: the same as ``intr``
+    obs_intr: Any = None
+
+    @property
+    def observed(self) -> Intrinsics:
+        """The intrinsics of the observations aligned to this reference."""
+        return self.intr if self.obs_intr is None else self.obs_intr
 
 
 def prepare_reference(frame: Frame, intr: Intrinsics, T_wc: np.ndarray) -> Reference:
@@ -406,6 +422,7 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
     dudp = np.zeros(P)
     dvdp = np.zeros(P)
     Jr = np.zeros(P)
+    colv = np.zeros(3)
     for k in range(pts.shape[0]):
         if not ook[k]:
             continue
@@ -423,12 +440,12 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
         for c in range(P):
             for i in range(3):
                 dqc[i, c] = B[c, i, 0] * p0 + B[c, i, 1] * p1 + B[c, i, 2] * p2 + b[c, i]
-            dudp[c] = fx * iz * dqc[0, c] - fx * q0 * iz * iz * dqc[2, c]
-            dvdp[c] = fy * iz * dqc[1, c] - fy * q1 * iz * iz * dqc[2, c]
-        # photometric: bilinear colour of the reference at (u, v)
+        # photometric: bilinear colour of the reference at (u, v); a negative threshold keeps
+        # no pixel (l1 >= 0), so the term is skipped without reading the colours
         u0 = min(int(math.floor(u)), W - 2)
         v0 = min(int(math.floor(v)), H - 2)
-        if valid[v0, u0] and valid[v0, u0 + 1] and valid[v0 + 1, u0] and valid[v0 + 1, u0 + 1]:
+        if photo_thr >= 0.0 and (valid[v0, u0] and valid[v0, u0 + 1] and valid[v0 + 1, u0]
+                                 and valid[v0 + 1, u0 + 1]):
             a = u - u0
             bb = v - v0
             l1 = 0.0
@@ -438,17 +455,20 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
                 c01 = rgb[v0 + 1, u0, ch]
                 c11 = rgb[v0 + 1, u0 + 1, ch]
                 col = (1 - a) * (1 - bb) * c00 + a * (1 - bb) * c10 + (1 - a) * bb * c01 + a * bb * c11
+                colv[ch] = col
                 l1 += abs(col - orgb[k, ch])
             if l1 <= photo_thr:
                 counts[0] += 1
                 val += w_photo * l1
+                for c in range(P):
+                    dudp[c] = fx * iz * dqc[0, c] - fx * q0 * iz * iz * dqc[2, c]
+                    dvdp[c] = fy * iz * dqc[1, c] - fy * q1 * iz * iz * dqc[2, c]
                 for ch in range(3):
                     c00 = rgb[v0, u0, ch]
                     c10 = rgb[v0, u0 + 1, ch]
                     c01 = rgb[v0 + 1, u0, ch]
                     c11 = rgb[v0 + 1, u0 + 1, ch]
-                    col = (1 - a) * (1 - bb) * c00 + a * (1 - bb) * c10 + (1 - a) * bb * c01 + a * bb * c11
-                    r = col - orgb[k, ch]
+                    r = colv[ch] - orgb[k, ch]
                     didu = (1 - bb) * (c10 - c00) + bb * (c11 - c01)
                     didv = (1 - a) * (c01 - c00) + a * (c11 - c10)
                     w = w_photo / max(abs(r), eps_p)
