@@ -46,6 +46,9 @@ TARGETS: tuple[Target, ...] = (
     Target("control_step_hz_paper", ">=", 75.0, "full control step, paper camera >= 75 Hz"),
 )
 
+#: ours' options of the ``_ref05`` rows (issue 17, part 2).
+REF05 = {"reference_scale": 0.5}
+
 TRACKERS = (  # (key part, estimator name, options, label)
     ("ours", "ours", {}, "ours, default"),
     ("ours_adam", "ours", {"optimizer": "adam"}, "ours, Adam 100x1000 px"),
@@ -427,6 +430,16 @@ TABLE: tuple[Measurement, ...] = (
                        "map render + A* when (re)planning; mid noise") for cam in CAMERA_NAMES),
     Measurement("e2e_episodes_per_min_paper", "end to end", "episodes per minute, paper camera",
                 _e2e("episodes", "paper"), unit="episodes/min", needs=_e2e_why),
+    # issue #17, part 2: the same steps with ours' option reference_scale = 0.5 (the reference
+    # rendered at 160 x 120; not the default: it changes results, README "Issue 17, part 2")
+    *(Measurement(f"{what}_ms_paper_ref05", "control", f"{label} (ours, reference_scale 0.5), paper",
+                  lambda ctx, n, ex=ex: timers.time_control_step(
+                      ctx.level, ctx.vmap, CAMERAS["paper"], n, seed=ctx.seed, budget_s=ctx.budget,
+                      exclude=ex, options=REF05),
+                  repeats=lambda n, _quick: max(n, 10), needs=_estimator_why("ours", _OURS_NA),
+                  progress=f"{label} (paper, reference_scale 0.5)",
+                  note="as the row without _ref05, ours with reference_scale = 0.5")
+      for what, label, ex in (("agent_step", "agent step", ("sim",)), ("control_step", "control step", ()))),
 )
 
 
