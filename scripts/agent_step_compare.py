@@ -7,7 +7,8 @@ machine load; the simulator step, whose code is the same in both, shows the nois
 a fresh process with one numba thread (as a pool worker) that runs the same seeded episodes
 (house-1 on its voxelized true geometry, mid noise, ``--estimators``) and prints the summed
 timing components. Prints the median over repeats of the agent step (render + estimate + plan +
-control per step), the simulator step, the episode wall time and the new/old ratios, and
+control per step), the simulator step, the episode wall time, the process CPU time per step
+(simulator included: the steadiest figure on a busy machine) and the new/old ratios, and
 whether both checkouts produced the same trajectories (a hash of poses and controls).
 """
 
@@ -38,7 +39,7 @@ tasks = bench_tasks(level, vmap, ntasks + 1, 1)
 intr = CAMERAS[camera]
 def episodes(ts):
     sums, steps, h = {}, 0, hashlib.sha256()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for name in ests:
         for i, t in enumerate(ts):
             sim = Simulator(level, noise="mid", seed=i, intrinsics=intr if uses_frames(name) else None,
@@ -50,10 +51,10 @@ def episodes(ts):
                 sums[k] = sums.get(k, 0.0) + float(np.sum(v))
             for a in (rec.true_poses, rec.est_poses, rec.controls):
                 h.update(np.ascontiguousarray(a).tobytes())
-    return sums, steps, time.perf_counter() - t0, h.hexdigest()
+    return sums, steps, time.perf_counter() - t0, time.process_time() - c0, h.hexdigest()
 episodes(tasks[-1:])  # warm-up (compilation)
-sums, steps, wall, digest = episodes(tasks[:ntasks])
-print(json.dumps({"sums_ms": sums, "steps": steps, "wall_s": wall, "digest": digest}))
+sums, steps, wall, cpu, digest = episodes(tasks[:ntasks])
+print(json.dumps({"sums_ms": sums, "steps": steps, "wall_s": wall, "cpu_s": cpu, "digest": digest}))
 """
 
 
@@ -95,7 +96,10 @@ def main() -> int:
         return sum(v for k, v in r["sums_ms"].items() if k != "sim") / r["steps"]
 
     rows = {"agent step ms": agent, "sim step ms": lambda r: r["sums_ms"]["sim"] / r["steps"],
-            "episodes wall s": lambda r: r["wall_s"]}
+            "episodes wall s": lambda r: r["wall_s"],
+            # CPU seconds of the process per step (simulator included; its code is the same in
+            # both): far less sensitive to other processes than the wall-clock rows
+            "cpu ms per step": lambda r: r.get("cpu_s", float("nan")) * 1e3 / r["steps"]}
     print(f"{a.estimators}, {a.camera} camera, {a.tasks} tasks, {a.repeats} repeats, one numba thread, "
           f"load {load:.2f}")
     for label, f in rows.items():

@@ -35,6 +35,7 @@ PINNED_METRIC_KEYS = [
     "agent_step_ms_half", "agent_step_ms_paper", "e2e_episodes_per_min_paper",
     # issue 15: appended
     "fusion_ms_half", "fusion_ms_paper",
+    "agent_step_ms_paper_ref05", "control_step_ms_paper_ref05",  # issue 17, part 2
 ]
 #: The other top-level keys of the result (host, map, config, per-key tables ...).
 PINNED_OTHER_KEYS = {
@@ -55,6 +56,7 @@ PINNED_PROGRESS = [
     "control step (half)", "control step (paper)", "end to end (2 tasks x 1 estimators, 2 workers)",
     "agent step (half)", "agent step (paper)", "end to end (2 tasks x 1 estimators, 2 workers), paper camera",
     "online fusion (half)", "online fusion (paper)",
+    "agent step (paper, reference_scale 0.5)", "control step (paper, reference_scale 0.5)",
     "done",
 ]
 
@@ -123,7 +125,11 @@ def test_the_loop_gives_the_pinned_layout(fake_timers):
     assert n_of == {"time_sim_step": 250, "time_fit_step": 3, "time_tracking": 5, "time_control_step": 10}
     # the agent step: the control step's timer without the simulator's component
     agent = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("exclude")]
-    assert len(agent) == 2 and all(kw["exclude"] == ("sim",) for kw in agent)
+    assert len(agent) == 3 and all(kw["exclude"] == ("sim",) for kw in agent)
+    # issue 17, part 2: the _ref05 rows pass ours' option reference_scale = 0.5, the others none
+    ref05 = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("options")]
+    assert [kw["options"] for kw in ref05] == [{"reference_scale": 0.5}] * 2
+    assert [kw.get("exclude", ()) for kw in ref05] == [("sim",), ()]
     assert result["e2e_episodes_per_min_paper"] == 80.0
 
 

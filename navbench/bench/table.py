@@ -46,6 +46,9 @@ TARGETS: tuple[Target, ...] = (
     Target("control_step_hz_paper", ">=", 75.0, "full control step, paper camera >= 75 Hz"),
 )
 
+#: ours' options of the ``_ref05`` rows (issue 17, part 2).
+REF05 = {"reference_scale": 0.5}
+
 TRACKERS = (  # (key part, estimator name, options, label)
     ("ours", "ours", {}, "ours, default"),
     ("ours_adam", "ours", {"optimizer": "adam"}, "ours, Adam 100x1000 px"),
@@ -435,6 +438,16 @@ TABLE: tuple[Measurement, ...] = (
                   note="fuse_frame (TSDF, navbench.worldmodel.fusion) at the true pose along the "
                        "tracking walk, 200 x 200 x 20 grid of the level; issue 15 target <= 10 ms "
                        "at the half camera") for cam in CAMERA_NAMES),
+    # issue #17, part 2: the same steps with ours' option reference_scale = 0.5 (the reference
+    # rendered at 160 x 120; not the default: it changes results, README "Issue 17, part 2")
+    *(Measurement(f"{what}_ms_paper_ref05", "control", f"{label} (ours, reference_scale 0.5), paper",
+                  lambda ctx, n, ex=ex: timers.time_control_step(
+                      ctx.level, ctx.vmap, CAMERAS["paper"], n, seed=ctx.seed, budget_s=ctx.budget,
+                      exclude=ex, options=REF05),
+                  repeats=lambda n, _quick: max(n, 10), needs=_estimator_why("ours", _OURS_NA),
+                  progress=f"{label} (paper, reference_scale 0.5)",
+                  note="as the row without _ref05, ours with reference_scale = 0.5")
+      for what, label, ex in (("agent_step", "agent step", ("sim",)), ("control_step", "control step", ()))),
 )
 
 

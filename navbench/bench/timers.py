@@ -319,13 +319,14 @@ def bench_tasks(level, vmap, count: int, seed: int = 0) -> list:
 
 def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup: int = 3, seed: int = 0,
                       estimator: str = "ours", noise: str = "mid", budget_s: float | None = None,
-                      exclude: tuple[str, ...] = ()) -> list[float]:
+                      exclude: tuple[str, ...] = (), options: dict | None = None) -> list[float]:
     """One full time step of :func:`navbench.nav.episode.run_episode` with ``estimator`` (its
     default options, as navigation runs it): controller, simulator step with its RGB-D
     observation, tracking with the map render, and A* when (re)planning -- the per-step sum of
     the episode's recorded component timings. Episodes over seeded tasks run until ``repeats``
     steps are in (or ``budget_s`` is spent); one short episode of ``warmup`` steps runs first.
-    ``exclude``: timing components left out of the sum (``("sim",)``: the agent's own step)."""
+    ``exclude``: timing components left out of the sum (``("sim",)``: the agent's own step);
+    ``options``: the estimator's keyword options (default: none)."""
     from dataclasses import replace
 
     from navbench.nav.episode import EpisodeConfig, run_episode
@@ -340,7 +341,7 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
     def episode(task, max_steps: int, ep_seed: int) -> np.ndarray:
         sim = Simulator(level, noise=noise, seed=ep_seed, intrinsics=intrinsics, camera_height=CAMERA_HEIGHT)
         est = make_estimator(estimator, vmap=vmap, intrinsics=intrinsics, camera_height=CAMERA_HEIGHT,
-                             seed=ep_seed)
+                             seed=ep_seed, **(options or {}))
         cfg = replace(EpisodeConfig(), max_steps=max_steps)
         rec = run_episode(level, occ2d, xs, ys, task, est, sim, config=cfg, planner_map=pm)
         t = rec.timings_ms

@@ -1,5 +1,5 @@
 """Eq. 7's terms for the prediction-to-observation trackers (:mod:`navbench.track.ours`): the
-options (:class:`TrackerConfig`), the pixel tables, the reference image and the observation, the
+options (:class:`TrackerConfig`, defined in :mod:`navbench.track.trackconfig`), the pixel tables, the reference image and the observation, the
 pose parameterisations, the dynamics prior, the robust photometric and point-to-plane residuals,
 and the numba kernel that sums them with their Gauss-Newton normal equations.
 
@@ -12,7 +12,6 @@ and the numba kernel that sums them with their Gauss-Newton normal equations.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, NamedTuple
 
@@ -21,104 +20,9 @@ import numpy as np
 
 from navbench.errors import TrackingError
 from navbench.geometry import CAMERA_HEIGHT, Frame, Intrinsics, camera_pose, pixel_rays
-from navbench.sim.dynamics import NOISE_LEVELS
-from navbench.track.base import config_from_options
 from navbench.track.lie import hat, planar_from_camera, se3_exp, se3_inverse, se3_log
-
-#: Tracking-study noise ``(sigma_alpha [rad], sigma_s [m])`` = (3 deg, 0.05 L), the default prior.
-_TRACKING_NOISE = NOISE_LEVELS["tracking"]
-
-OPTIMIZERS = ("adam", "gauss-newton")
-PARAMS = ("planar", "se3")
-
-
-# ------------------------------------------------------------------------------ configuration
-
-@dataclass(frozen=True)
-class TrackerConfig:
-    """Options of the prediction-to-observation trackers (all keyword options of the estimators)."""
-
-    optimizer: str = "gauss-newton"  # "adam" (paper) or "gauss-newton"
-    param: str = "planar"  # "planar" (x, y, theta) or "se3" (camera pose, projected to planar)
-    # dynamics prior: (sigma_xy [m], sigma_theta [rad]) of the Gaussian around the prediction
-    prior_sigma: tuple[float, float] = (_TRACKING_NOISE[1], _TRACKING_NOISE[0])
-    # se3 only: sigmas of the off-plane components (vertical translation [m], roll/pitch [rad])
-    off_plane_sigma: tuple[float, float] = (0.005, math.radians(0.5))
-    photo_threshold: float = 1.0  # photometric L1 (sum over RGB, colour units) ignored above
-    geo_threshold: float = 5.0  # |point-to-plane| (m) ignored above
-    pixel_scale: float = 1000.0  # S: data terms are scaled to a sum over S pixels
-    photo_weight: float = 1.0  # weight of the photometric term (eq. 7: 1)
-    geo_weight: float = 3.0  # weight of the point-to-plane term per metre (eq. 7 literally: 1)
-    # adam (appendix C/E)
-    adam_steps: int = 100
-    adam_pixels: int = 1000
-    adam_lr: tuple[float, float] = (0.01, 0.01)  # (translation [m], rotation [rad]) step sizes
-    adam_betas: tuple[float, float] = (0.9, 0.999)
-    # gauss-newton (IRLS)
-    gn_iters: int = 10
-    gn_geo_iters: int = 5  # the first iterations use the point-to-plane term only
-    gn_pixels: int = 3000
-    gn_tol: tuple[float, float] = (1e-5, 1e-5)  # stop when |step| below (m, rad)
-    # (photometric, geometric) IRLS weight floor: residuals below it are weighted quadratically
-    irls_eps: tuple[float, float] = (0.01, 0.01)
-    # normals: reject where inverse depth is not locally planar (relative second difference)
-    normal_max_curvature: float = 0.05
-    # heading search before the local optimiser (0 disables it): candidate headings
-    # pred_theta + k * yaw_search_step_deg within +-yaw_search_deg are scored by the mean kept
-    # data term of eq. 7 on yaw_search_pixels pixels, and the optimiser starts from the best
-    # (the prior stays centred on the prediction). A turn in place at mid/high noise is off by up
-    # to ~3 sigma = 18-27 deg, far outside the local optimisers' basin.
-    yaw_search_deg: float = 24.0
-    yaw_search_step_deg: float = 2.0
-    yaw_search_pixels: int = 400
-    # tracking health and recovery (issue 14; navbench.track.health, navbench.track.relocalize):
-    # health: compute the inlier fraction at each estimate and raise an alarm below
-    # health_min_inliers (0.5: calibrated on normal tracking of house-1; "auto": per map, below);
-    # recover: on an alarm, relocalise through the relocaliser (health implied). Off by default:
-    # with both off the tracker computes exactly what it did before.
-    health: bool = False
-    health_tol: float = 0.05  # relative z-depth agreement of an inlier
-    health_photo_tol: float = 0.3  # colour agreement of an inlier (L1 over RGB)
-    health_band: tuple[float, float] = (0.05, 1.1)  # m, heights of the points that count
-    health_pixels: int = 1000  # fixed random pixels the health test reads
-    # a number, or "auto": the map's own threshold (navbench.track.health.HealthCalibration,
-    # calibrated on the map's views; the estimator is then given it as health_threshold=)
-    health_min_inliers: float | str = 0.5
-    recover: bool = False
-    relocalizer_name: str = "localize"  # a name of navbench.track.relocalize.RELOCALIZERS
-    relocalize_top: int = 3  # hypotheses verified per relocalisation
-    # steps the runner-up hypotheses of a relocalisation (verified, passing the test) are tracked
-    # beside the chosen one; then the track with the largest summed inlier fraction is kept
-    # (look-alike places diverge as the robot moves). 0: off, the chosen one is final.
-    relocalize_keep: int = 0
-
-    def __post_init__(self):
-        if self.optimizer not in OPTIMIZERS:
-            raise TrackingError(f"unknown optimizer {self.optimizer!r}; choose one of {OPTIMIZERS}")
-        if self.param not in PARAMS:
-            raise TrackingError(f"unknown param {self.param!r}; choose one of {PARAMS}")
-        for name in ("adam_steps", "adam_pixels", "gn_iters", "gn_pixels"):
-            if int(getattr(self, name)) < 1:
-                raise TrackingError(f"option {name} must be >= 1, got {getattr(self, name)!r}")
-        if min(self.prior_sigma) <= 0 or min(self.off_plane_sigma) <= 0:
-            raise TrackingError("prior sigmas must be > 0")
-        m = self.health_min_inliers
-        if not self.health_tol > 0:
-            raise TrackingError(f"health_tol must be > 0, got {self.health_tol!r}")
-        number = isinstance(m, (int, float)) and not isinstance(m, bool)
-        if not (m == "auto" or (number and 0 <= m <= 1)):
-            raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', "
-                                f"got {m!r}")
-        if int(self.health_pixels) < 1 or int(self.relocalize_top) < 1:
-            raise TrackingError("health_pixels and relocalize_top must be >= 1")
-        k = self.relocalize_keep
-        if isinstance(k, bool) or not isinstance(k, int) or k < 0:
-            raise TrackingError(f"relocalize_keep must be a step count >= 0, got {k!r}")
-
-
-def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:
-    """Build a :class:`TrackerConfig` from keyword options; unknown names raise TrackingError."""
-    return config_from_options(base or TrackerConfig(), options, "tracker")
+from navbench.track.trackconfig import (  # noqa: F401  (re-exported: eq. 7's options)
+    _TRACKING_NOISE, OPTIMIZERS, PARAMS, TrackerConfig, make_config)
 
 
 # ------------------------------------------------------------------------------ pixel tables
@@ -157,6 +61,14 @@ class Reference(NamedTuple):
     # a lazy reference (navbench.worldmodel.fastrender.LazyFrame) whose fill(points, ok, Trels)
     # renders the pixels the kernel will read before it reads them; None: rgb/depth/valid are full
     lazy: Any = None
+    # the observation's intrinsics when they differ from the reference's (option
+    # reference_scale); None: the same as ``intr``
+    obs_intr: Any = None
+
+    @property
+    def observed(self) -> Intrinsics:
+        """The intrinsics of the observations aligned to this reference."""
+        return self.intr if self.obs_intr is None else self.obs_intr
 
 
 def prepare_reference(frame: Frame, intr: Intrinsics, T_wc: np.ndarray) -> Reference:
@@ -420,6 +332,7 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
     dudp = np.zeros(P)
     dvdp = np.zeros(P)
     Jr = np.zeros(P)
+    colv = np.zeros(3)
     for k in range(pts.shape[0]):
         if not ook[k]:
             continue
@@ -437,12 +350,12 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
         for c in range(P):
             for i in range(3):
                 dqc[i, c] = B[c, i, 0] * p0 + B[c, i, 1] * p1 + B[c, i, 2] * p2 + b[c, i]
-            dudp[c] = fx * iz * dqc[0, c] - fx * q0 * iz * iz * dqc[2, c]
-            dvdp[c] = fy * iz * dqc[1, c] - fy * q1 * iz * iz * dqc[2, c]
-        # photometric: bilinear colour of the reference at (u, v)
+        # photometric: bilinear colour of the reference at (u, v); a negative threshold keeps
+        # no pixel (l1 >= 0), so the term is skipped without reading the colours
         u0 = min(int(math.floor(u)), W - 2)
         v0 = min(int(math.floor(v)), H - 2)
-        if valid[v0, u0] and valid[v0, u0 + 1] and valid[v0 + 1, u0] and valid[v0 + 1, u0 + 1]:
+        if photo_thr >= 0.0 and (valid[v0, u0] and valid[v0, u0 + 1] and valid[v0 + 1, u0]
+                                 and valid[v0 + 1, u0 + 1]):
             a = u - u0
             bb = v - v0
             l1 = 0.0
@@ -452,17 +365,20 @@ def _accumulate_kernel(rgb, depth, valid, fx, fy, cx, cy, pts, orgb, ook, Trel, 
                 c01 = rgb[v0 + 1, u0, ch]
                 c11 = rgb[v0 + 1, u0 + 1, ch]
                 col = (1 - a) * (1 - bb) * c00 + a * (1 - bb) * c10 + (1 - a) * bb * c01 + a * bb * c11
+                colv[ch] = col
                 l1 += abs(col - orgb[k, ch])
             if l1 <= photo_thr:
                 counts[0] += 1
                 val += w_photo * l1
+                for c in range(P):
+                    dudp[c] = fx * iz * dqc[0, c] - fx * q0 * iz * iz * dqc[2, c]
+                    dvdp[c] = fy * iz * dqc[1, c] - fy * q1 * iz * iz * dqc[2, c]
                 for ch in range(3):
                     c00 = rgb[v0, u0, ch]
                     c10 = rgb[v0, u0 + 1, ch]
                     c01 = rgb[v0 + 1, u0, ch]
                     c11 = rgb[v0 + 1, u0 + 1, ch]
-                    col = (1 - a) * (1 - bb) * c00 + a * (1 - bb) * c10 + (1 - a) * bb * c01 + a * bb * c11
-                    r = col - orgb[k, ch]
+                    r = colv[ch] - orgb[k, ch]
                     didu = (1 - bb) * (c10 - c00) + bb * (c11 - c01)
                     didv = (1 - a) * (c01 - c00) + a * (c11 - c10)
                     w = w_photo / max(abs(r), eps_p)

@@ -81,6 +81,7 @@ from navbench.track.odometry import predict_pose
 from navbench.track.base import check_update
 from navbench.track.lie import se3_inverse
 from navbench.track.eq7 import (
+    Observation,
     Reference,
     TrackerConfig,
     accumulate,
@@ -106,6 +107,7 @@ from navbench.track.eq7 import (
 #: touch most pixels and the lazy bookkeeping makes it slower). False renders every pixel first.
 LAZY_REFERENCE = True
 LAZY_MIN_PIXELS = 320 * 240
+LAZY_PARALLEL = False
 
 
 # ------------------------------------------------------------------------------ optimisers
@@ -121,19 +123,26 @@ def _initial_state(param: str, pred: np.ndarray, camera_height: float):
 
 
 def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
-               idx: np.ndarray, camera_height: float = CAMERA_HEIGHT) -> np.ndarray:
+               idx: np.ndarray, camera_height: float = CAMERA_HEIGHT,
+               obs: Observation | None = None) -> np.ndarray:
     """The planar start pose for the local optimiser: the best heading around the prediction.
 
     Scores ``pred`` with its heading offset by ``k * yaw_search_step_deg`` (``|offset| <=
     yaw_search_deg``) by the mean kept data term of eq. 7 per kept photometric pixel on the first
     ``yaw_search_pixels`` of ``idx``; candidates that keep fewer than 30 % of those pixels are
     skipped. Returns ``pred`` itself when the search is disabled or no candidate qualifies.
+    ``obs``: ``sample_observation(frame, ref.observed, idx)`` when the caller has it (its first
+    ``yaw_search_pixels`` rows are the same numbers as sampling those pixels again).
     """
     pred = np.asarray(pred, dtype=np.float64)
     if cfg.yaw_search_deg <= 0 or cfg.yaw_search_step_deg <= 0:
         return pred.copy()
     sub = idx[: cfg.yaw_search_pixels]
-    obs = sample_observation(frame, ref.intr, sub)
+    if obs is None:
+        obs = sample_observation(frame, ref.observed, sub)
+    else:
+        n = len(sub)
+        obs = Observation(obs.points[:n], obs.rgb[:n], obs.ok[:n])
     n_half = int(math.floor(cfg.yaw_search_deg / cfg.yaw_search_step_deg + 1e-9))
     best, best_cost = pred.copy(), np.inf
     Ti = se3_inverse(ref.T_wc)
@@ -171,7 +180,7 @@ def align_adam(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
     Ti = se3_inverse(ref.T_wc)
     for i in range(cfg.adam_steps):
         row = table[i % len(table), : cfg.adam_pixels]
-        obs = sample_observation(frame, ref.intr, row)
+        obs = sample_observation(frame, ref.observed, row)
         Trel, B, b = linearization(param, state, ref.T_wc, camera_height, Ti)
         acc = accumulate(ref, obs, Trel, B, b, cfg)
         _, pg, _ = prior_terms(param, state, pred, cfg, camera_height)
@@ -197,8 +206,8 @@ def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: Trac
     within reach; the remaining iterations minimise the full eq. 7.
     """
     param = cfg.param
-    obs = sample_observation(frame, ref.intr, idx)
-    start = yaw_search(ref, frame, pred, cfg, idx, camera_height)
+    obs = sample_observation(frame, ref.observed, idx)
+    start = yaw_search(ref, frame, pred, cfg, idx, camera_height, obs)
     state = _initial_state(param, start, camera_height)
     scale = cfg.pixel_scale / max(len(idx), 1)
     ntr = 2 if param == "planar" else 3
@@ -236,7 +245,7 @@ def _gn_pixels(height: int, width: int, count: int, seed: int) -> np.ndarray:
 def align(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
           seed: int = 0, camera_height: float = CAMERA_HEIGHT) -> np.ndarray:
     """Eq. 7 minimised by the configured optimiser; returns the planar pose ``(3,)``."""
-    H, W = ref.intr.shape
+    H, W = ref.observed.shape
     pred = np.asarray(pred, dtype=np.float64)
     if cfg.optimizer == "adam":
         table = pixel_table(H, W, 100, cfg.adam_pixels, seed)
@@ -270,7 +279,7 @@ class _PredictionToObservation:
                  camera_height: float = CAMERA_HEIGHT, renderer: Callable | None = None,
                  seed: int = 0, relocalizer=None, health_threshold: float | None = None,
                  **options):
-        self.config = make_config(options)
+        self.config = make_config(options, self.options())
         # the alarm threshold: health_min_inliers, or with health_min_inliers="auto" the map's
         # calibrated one, given by the caller (navbench.pipeline.stages.health)
         self.health_threshold = _health_threshold(self.config, health_threshold)
@@ -287,9 +296,15 @@ class _PredictionToObservation:
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
         self.seed = int(seed)
+        scale = float(self.config.reference_scale)
+        if scale != 1 and renderer is not None:
+            raise TrackingError(f"estimator {self.name!r}: option reference_scale renders the map itself; "
+                                f"it cannot be combined with renderer=")
+        # the reference image's camera: the observations' own, or scaled (option reference_scale)
+        self._ref_intr = intrinsics if scale == 1 else intrinsics.scaled(scale)
         if self.uses_map:
             self._render = renderer if renderer is not None else default_renderer(
-                vmap, intrinsics, camera_height)
+                vmap, self._ref_intr, camera_height)
         else:
             self._render = None
         self.pose = None
@@ -322,10 +337,14 @@ class _PredictionToObservation:
         if (LAZY_REFERENCE and not (self.config.health or self.config.recover)
                 and isinstance(fr, FastRenderer)
                 and getattr(self._render, "__func__", None) is FastRenderer.render
-                and fr.intrinsics == self.intrinsics and fr._kernel is render_kernel_serial
-                and self.intrinsics.width * self.intrinsics.height >= LAZY_MIN_PIXELS):
+                and fr.intrinsics == self._ref_intr and (fr._kernel is render_kernel_serial or LAZY_PARALLEL)
+                and self._ref_intr.width * self._ref_intr.height >= LAZY_MIN_PIXELS):
             return fr
         return None
+
+    def _obs_intr(self):
+        """``Reference.obs_intr``: the observations' intrinsics when the reference has others."""
+        return None if self._ref_intr == self.intrinsics else self.intrinsics
 
     def _reference(self) -> tuple[Reference, float]:
         """The reference for the current ``z*_{t-1}`` (rendered at most once per pose)."""
@@ -337,7 +356,8 @@ class _PredictionToObservation:
 
                 lazy = LazyFrame(fr, camera_pose(self.pose, fr.camera_height))
                 self._ref = Reference(lazy.rgb, lazy.depth, lazy.valid,
-                                      camera_pose(self.pose, self.camera_height), self.intrinsics, lazy)
+                                      camera_pose(self.pose, self.camera_height), self._ref_intr, lazy,
+                                      self._obs_intr())
                 self._ref_pose = self.pose.copy()
                 return self._ref, (time.perf_counter() - t0) * 1e3
             if self.uses_map:
@@ -345,8 +365,10 @@ class _PredictionToObservation:
             else:
                 frame = self._prev_frame
             ms_render = (time.perf_counter() - t0) * 1e3 if self.uses_map else 0.0
-            self._ref = prepare_reference(frame, self.intrinsics,
+            self._ref = prepare_reference(frame, self._ref_intr,
                                           camera_pose(self.pose, self.camera_height))
+            if self._ref_intr != self.intrinsics:
+                self._ref = self._ref._replace(obs_intr=self.intrinsics)
             self._ref_pose = self.pose.copy()
             return self._ref, ms_render
         return self._ref, 0.0
@@ -499,8 +521,20 @@ class PredictionToObservationTracker(_PredictionToObservation):
     uses_map = True
 
 
+class FrameToFrameConfig(TrackerConfig):
+    """The options of ``no-map``: :class:`TrackerConfig`, whose ``reference_scale`` only a map
+    can serve (its reference is the previous observation)."""
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.reference_scale != 1:
+            raise TrackingError("option reference_scale needs a map-based tracker (ours); "
+                                "no-map's reference is the previous observation")
+
+
 class FrameToFrameTracker(_PredictionToObservation):
     """The "no map" ablation: eq. 7 against the previous observation ``x_{t-1}``."""
 
     name = "no-map"
     uses_map = False
+    options = FrameToFrameConfig

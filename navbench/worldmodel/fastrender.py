@@ -175,7 +175,7 @@ def _no_hit(depth, valid, rgb, r, c):
 def _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
                   nx, ny, nz, depth, rgb, valid):
     """Render pixel ``(r, c)`` into ``depth``, ``rgb``, ``valid`` (one ray of :func:`_render_kernel`;
-    :func:`fill_projected` renders single pixels with it)."""
+    :func:`render_list` renders single pixels with it)."""
     a0, a1, a2 = rays[r, c, 0], rays[r, c, 1], rays[r, c, 2]
     # world direction times step, in cell units
     dx = (R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2) * inv_size[0] * step
@@ -254,22 +254,18 @@ def _render_kernel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, 
 
 
 @nb.njit(cache=True, nogil=True)
-def fill_projected(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau,
-                   depth32, rgb32, valid8, done, depth, rgb, valid,
-                   fx, fy, cx, cy, pts, ook, Trels):
-    """Render, on demand, the reference pixels the eq. 7 kernel will read (a lazy reference).
+def collect_projected(done, fx, fy, cx, cy, pts, ook, Trels, todo):
+    """The reference pixels the eq. 7 kernel will read, for a lazy reference (step 1 of 2).
 
     For every linearisation ``Trels[t] (4, 4)`` and every valid point ``pts[k]`` it projects
     ``q = Trel p`` exactly as :func:`navbench.track.eq7._accumulate_kernel` does (the same
-    expressions, so the same floats) and renders (with :func:`_render_pixel`, the full
-    renderer's ray) the pixels the kernel reads there that are not yet ``done``: the 4 bilinear
-    corners and, when inside the border, the nearest pixel and its 4 neighbours (the normal and
-    curvature). Rendered pixels are written to the
-    float32 frame (``depth32``, ``rgb32``, ``valid8``) and converted as
-    :func:`navbench.track.eq7.prepare_reference` converts a frame (float64, invalid depth 0).
-    Returns the number of pixels rendered.
+    expressions, so the same floats) and lists the pixels the kernel reads there that are not
+    yet ``done``: the 4 bilinear corners and, when inside the border, the nearest pixel and its
+    4 neighbours (the normal and curvature). It marks them ``done`` and writes their flat
+    indices ``r * W + c`` to ``todo`` (at least ``H * W`` long); returns their number.
+    :func:`render_list` renders them (step 2): collecting first and rendering in a separate
+    loop is ~15 % faster than rendering inside this loop, and the rendering may use threads.
     """
-    nx, ny, nz = occ.shape
     H, W = done.shape
     count = 0
     for t in range(Trels.shape[0]):
@@ -293,7 +289,6 @@ def fill_projected(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau,
             ui = int(math.floor(u + 0.5))
             vi = int(math.floor(v + 0.5))
             cross = ui >= 1 and ui <= W - 2 and vi >= 1 and vi <= H - 2
-            # the bilinear corners, then the nearest pixel's cross (5 pixels)
             for e in range(9):
                 if e < 4:
                     r, c = v0 + e // 2, u0 + e % 2
@@ -304,17 +299,33 @@ def fill_projected(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau,
                     break
                 if done[r, c]:
                     continue
-                _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
-                              nx, ny, nz, depth32, rgb32, valid8)
-                d = np.float64(depth32[r, c])
-                ok = valid8[r, c] and math.isfinite(d) and d > 0
-                valid[r, c] = ok
-                depth[r, c] = d if ok else 0.0
-                for ch in range(3):
-                    rgb[r, c, ch] = np.float64(rgb32[r, c, ch])
                 done[r, c] = True
+                todo[count] = r * W + c
                 count += 1
     return count
+
+
+def _render_list(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau,
+                 depth32, rgb32, valid8, depth, rgb, valid, todo, count):
+    """Render the pixels ``todo[:count]`` (flat indices) with the full renderer's ray
+    (:func:`_render_pixel`) into the float32 frame (``depth32``, ``rgb32``, ``valid8``) and
+    convert them as :func:`navbench.track.eq7.prepare_reference` converts a frame (float64
+    ``depth``, ``rgb``, ``valid``; invalid depth 0). Every pixel is rendered on its own, so
+    neither the order nor the thread changes a value."""
+    nx, ny, nz = occ.shape
+    W = depth.shape[1]
+    for i in nb.prange(count):
+        f = todo[i]
+        r = f // W
+        c = f - r * W
+        _render_pixel(occ, col, dist, dist2, u_c, inv_size, R, rays, step, n, tau, r, c,
+                      nx, ny, nz, depth32, rgb32, valid8)
+        d = np.float64(depth32[r, c])
+        ok = valid8[r, c] and math.isfinite(d) and d > 0
+        valid[r, c] = ok
+        depth[r, c] = d if ok else 0.0
+        for ch in range(3):
+            rgb[r, c, ch] = np.float64(rgb32[r, c, ch])
 
 
 class LazyFrame:
@@ -341,6 +352,7 @@ class LazyFrame:
         self.valid = np.zeros((H, W), np.bool_)
         self.seconds = 0.0
         self.rendered = 0
+        self._todo = np.empty(H * W, np.int64)  # pixels to render, flat indices
 
     def fill(self, points: np.ndarray, ok: np.ndarray, Trels: np.ndarray) -> None:
         """Render the pixels that the eq. 7 kernel reads for ``points (K, 3)`` (where ``ok``)
@@ -349,10 +361,13 @@ class LazyFrame:
 
         t0 = time.perf_counter()
         fr, i = self.renderer, self.renderer.intrinsics
-        self.rendered += fill_projected(
-            fr.vmap.occ, fr._col, fr.dist, fr.dist2, self._u_c, fr._inv, self._R, fr.rays, fr.step, fr.n,
-            fr.vmap.tau, self._depth32, self._rgb32, self._valid8, self.done, self.depth, self.rgb,
-            self.valid, float(i.fx), float(i.fy), float(i.cx), float(i.cy), points, ok, Trels)
+        count = collect_projected(self.done, float(i.fx), float(i.fy), float(i.cx), float(i.cy),
+                                  points, ok, Trels, self._todo)
+        kernel = render_list if fr._kernel is render_kernel else render_list_serial
+        kernel(fr.vmap.occ, fr._col, fr.dist, fr.dist2, self._u_c, fr._inv, self._R, fr.rays, fr.step,
+               fr.n, fr.vmap.tau, self._depth32, self._rgb32, self._valid8, self.depth, self.rgb,
+               self.valid, self._todo, count)
+        self.rendered += count
         self.seconds += time.perf_counter() - t0
 
 
@@ -371,6 +386,8 @@ def _named_copy(fn, name: str):
 
 render_kernel = nb.njit(cache=True, parallel=True)(_named_copy(_render_kernel, "_render_kernel_parallel"))
 render_kernel_serial = nb.njit(cache=True)(_named_copy(_render_kernel, "_render_kernel_serial"))
+render_list = nb.njit(cache=True, parallel=True)(_named_copy(_render_list, "_render_list_parallel"))
+render_list_serial = nb.njit(cache=True, nogil=True)(_named_copy(_render_list, "_render_list_serial"))
 #: Images with at least this many pixels render on numba's threads by default (measured on 2
 #: idle cores: 160 x 120 in 1.9 ms parallel vs 4.1 ms on one thread; 320 x 240 in 7.6 vs 14 ms).
 PARALLEL_MIN_PIXELS = 160 * 120

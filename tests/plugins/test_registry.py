@@ -67,7 +67,7 @@ def fake_entry_points(monkeypatch, *eps: tuple[str, str, str]):
     ("gt", False, False, None),
     ("dynamics", False, False, None),
     ("ours", True, True, "TrackerConfig"),
-    ("no-map", True, False, "TrackerConfig"),
+    ("no-map", True, False, "FrameToFrameConfig"),  # TrackerConfig without reference_scale (issue 17)
     ("emission", True, True, "EmissionConfig"),
 ])
 def test_builtin_capabilities_are_class_attributes(name, frames, vmap, options):

@@ -54,7 +54,7 @@ def collect_views_stage(ctx: StageContext, level: Ref, cfg: ViewsConfig) -> Ref:
         update = ctx.progress(f"views {level.name} (seed {cfg.seed})", cfg.count)
         views = collect_views(load_level_ref(level), cfg.count, camera_by_name(cfg.camera), cfg.seed,
                               progress=update)
-        save_views(views, d / VIEWS_FILE)
+        save_views(views, d / VIEWS_FILE, compress=True)  # depth and valid losslessly compressed
 
     path, key, cached = ctx.run("collect-views", cfg, {"level": level.key}, compute)
     return Ref("collect-views", key, path / VIEWS_FILE, cached, level.name)
