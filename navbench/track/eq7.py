@@ -1,7 +1,8 @@
 """Eq. 7's terms for the prediction-to-observation trackers (:mod:`navbench.track.ours`): the
-options (:class:`TrackerConfig`, defined in :mod:`navbench.track.trackconfig`), the pixel tables, the reference image and the observation, the
-pose parameterisations, the dynamics prior, the robust photometric and point-to-plane residuals,
-and the numba kernel that sums them with their Gauss-Newton normal equations.
+options (:class:`TrackerConfig`, defined in :mod:`navbench.track.trackconfig`), the pixel tables,
+the reference image and the observation, the pose parameterisations, the dynamics prior, the
+robust photometric and point-to-plane residuals, and the numba kernel that sums them with their
+Gauss-Newton normal equations.
 
 :func:`residuals`, :func:`depth_normals` and :func:`objective` are the numpy reference that
 :func:`accumulate` (numba) is tested against. The objective itself is documented in
