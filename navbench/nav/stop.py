@@ -21,9 +21,10 @@ fools a stopper that trusts the first match:
    move. This loses the episodes whose goal view cannot tell two places apart.
 3. **The decision must hold** (:class:`GoalStopper`): a stop needs ``consistent`` (2)
    consecutive updates that each match the goal (tests 1 and 2) at the same place (within
-   ``consistent_radius``, 0.25 m) with the estimated pose within ``stop_radius`` (0.25 m) of
-   it. The online map changes between updates, so a match that new observations contradict
-   (the look-alike room seen from its doorway) resets the count.
+   ``consistent_radius``, 0.25 m), the last with the estimated pose within ``stop_radius``
+   (0.25 m) of it. Updates far from the goal count (a match seen from afar, confirmed on
+   arrival from another pose and a grown map); a failed match resets the count, so a match
+   that new observations contradict (the look-alike room seen from its doorway) never stops.
 
 Thresholds were set a priori (90 % of the goal view explained, the localiser's own 5 cm / 3 %
 depth and 0.1 colour inlier tests), not tuned on any level reported.
@@ -131,12 +132,11 @@ class GoalStopper:
         if match.status != "matched":
             self.reset()
             return StopDecision(False, match.status, match, dist)
-        if dist > cfg.stop_radius:
-            self.reset()
-            return StopDecision(False, "far", match, dist)
         same = self._last is not None and float(np.hypot(*(match.pose[:2] - self._last))) <= cfg.consistent_radius
         self._streak = self._streak + 1 if same else 1
         self._last = match.pose[:2].copy()
+        if dist > cfg.stop_radius:
+            return StopDecision(False, "far", match, dist)
         if self._streak >= cfg.consistent:
             return StopDecision(True, "at-goal", match, dist)
         return StopDecision(False, "confirming", match, dist)
