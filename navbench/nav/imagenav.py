@@ -121,11 +121,15 @@ class SeenMap:
         raise NotImplementedError("a SeenMap is not loaded")
 
 
-def reveal_frame(known: np.ndarray, xs, ys, pose, frame: Frame, intrinsics: Intrinsics, substeps: int = 4) -> None:
+def reveal_frame(known: np.ndarray, xs, ys, pose, frame: Frame, intrinsics: Intrinsics, substeps: int = 4,
+                 behind: float = 1.5) -> None:
     """Mark in ``known (nx, ny)`` (in place) the cells seen by ``frame`` taken from ``pose``:
     along each column's horizontal direction (and ``substeps`` directions between neighbouring
-    columns, with the smaller of their two ranges), every cell up to half a cell past the
-    column's farthest valid pixel (its horizontal distance from the camera)."""
+    columns, with the smaller of their two ranges), every cell up to ``behind`` cells past the
+    column's farthest valid pixel (its horizontal distance from the camera). ``behind``: the
+    sensor knows a thin layer behind a surface it sees is solid (1.5 cells, 0.086 m on a
+    house's 0.057 m cells, less than a wall's 0.1 m); with only the surface's own cell, the
+    trilinear occupancy of :class:`SeenMap` can stay below ``tau`` and walls render with holes."""
     depth = np.asarray(frame.depth, np.float64)
     valid = np.asarray(frame.valid, bool) & np.isfinite(depth)
     u = np.arange(intrinsics.width, dtype=np.float64)
@@ -139,7 +143,7 @@ def reveal_frame(known: np.ndarray, xs, ys, pose, frame: Frame, intrinsics: Intr
     ang, r = np.append(ang, ang_u[-1]), np.append(r, rng[-1])
     cell = float(xs[1] - xs[0])
     keep = r > 0
-    ang, r = ang[keep], r[keep] + 0.5 * cell
+    ang, r = ang[keep], r[keep] + behind * cell
     if len(r) == 0:
         return
     n = int(math.ceil(r.max() / (0.5 * cell))) + 1
