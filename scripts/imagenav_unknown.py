@@ -7,7 +7,8 @@ The goal image of task ``k`` is the TRUE camera's RGB-D frame at the task's targ
 drawn from ``numpy.random.default_rng(seed * 100003 + k)``. ``--difficulty`` keeps the tasks whose
 exact geodesic length (the task's ``optimal_length``) is in NRNS's band (easy 1.5-3 m, medium
 3-5 m, hard 5-10 m). ``--ablation``: ``full`` (exploration and goal scores), ``no-goal``
-(exploration without goal scoring), ``no-explore`` (goal scoring without exploration). Writes
+(exploration without goal scoring), ``no-explore`` (goal scoring without exploration),
+``gt-stopper`` (the full model stopped by an oracle once within 1 m of the goal). Writes
 nothing; prints one line per episode and the totals. See :mod:`navbench.nav.imagenav`.
 """
 
@@ -27,7 +28,8 @@ from navbench.sim.camera import RaycastCamera
 from navbench.worldmodel.grid import voxelize_level
 
 BANDS = {"easy": (1.5, 3.0), "medium": (3.0, 5.0), "hard": (5.0, 10.0), "any": (0.0, math.inf)}
-ABLATIONS = {"full": {}, "no-goal": {"goal_score": False}, "no-explore": {"exploration_score": False}}
+ABLATIONS = {"full": {}, "no-goal": {"goal_score": False}, "no-explore": {"exploration_score": False},
+             "gt-stopper": {}}
 
 
 def main() -> None:
@@ -51,7 +53,8 @@ def main() -> None:
     for t in tasks:
         rng = np.random.default_rng(args.seed * 100003 + t.id)
         goal = cam.render(np.array([t.target[0], t.target[1], rng.uniform(-math.pi, math.pi)]))
-        ep = run_unknown_image_episode(level, np.asarray(t.start), goal, cfg, HALF_CAMERA, full)
+        oracle = np.asarray(t.target) if args.ablation == "gt-stopper" else None
+        ep = run_unknown_image_episode(level, np.asarray(t.start), goal, cfg, HALF_CAMERA, full, oracle)
         ok, spl, final = score_image_episode(ep, t.target, t.optimal_length, cfg.success_radius)
         if args.log:
             print("   ", ep.match_log)

@@ -175,10 +175,13 @@ def _goal_score(match, cfg: ImageNavConfig):
 
 
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),
-                              intrinsics: Intrinsics = HALF_CAMERA, full_map=None) -> ImageEpisode:
+                              intrinsics: Intrinsics = HALF_CAMERA, full_map=None,
+                              oracle_target=None) -> ImageEpisode:
     """One episode from ``start (3,)`` to the place ``goal`` shows (module docstring).
     ``full_map``: the level voxelised (:func:`~navbench.worldmodel.grid.voxelize_level`), passed
-    in to share it across episodes."""
+    in to share it across episodes. ``oracle_target (2,)``: RNR-Map's "GT stopper" ablation
+    (Table 4): the agent stops as soon as its true position is within ``success_radius`` of it
+    (Euclidean; the paper's reads the geodesic distance), and never by its own decision."""
     from dataclasses import replace
 
     from navbench.localize import LocalizationError, Localizer, LocalizerConfig
@@ -222,6 +225,9 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     while len(poses) - 1 < cfg.max_steps and guard < 4 * cfg.max_steps:
         guard += 1
         steps = len(poses) - 1
+        if oracle_target is not None and math.dist(pose[:2], np.asarray(oracle_target)[:2]) <= cfg.success_radius:
+            end, stop_step = "stopped", steps
+            break
         if rematch or (mode == "explore" and steps - last_match >= cfg.match_every):
             rematch, last_match = False, steps
             d = None
@@ -234,7 +240,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                 match = d.match
                 matches += 1
                 log.append((steps, d.reason, round(match.confidence, 3), round(match.rival, 3), round(d.distance, 2)))
-                if d.stop:
+                if d.stop and oracle_target is None:
                     end, stop_step = "stopped", steps
                     break
                 if d.reason == "confirming":  # at the place, matched once: confirm next step

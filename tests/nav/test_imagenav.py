@@ -90,3 +90,11 @@ def test_score_image_episode_by_hand():
     assert score_image_episode(ep, (3.0, 5.5), 5.0)[0] is False  # 1.5 m > 1 m
     ep.end_reason = "step-limit"  # there but never decided to stop: a failure
     assert score_image_episode(ep, (3.0, 4.0), 5.0) == (False, 0.0, 0.0)
+
+
+def test_gt_stopper_ablation_stops_by_the_oracle_only(twin_episode):
+    level, goal_pose, _, goal = twin_episode
+    near = np.array([goal_pose[0] + 0.5, goal_pose[1] + 0.3, 0.0])
+    ep = run_unknown_image_episode(level, near, goal, ImageNavConfig(max_steps=60), oracle_target=goal_pose[:2])
+    # the oracle stops it right after the look-around, before any match of its own
+    assert ep.end_reason == "stopped" and ep.stop_step == ImageNavConfig().look_around and ep.matches == 0
