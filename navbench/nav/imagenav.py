@@ -18,8 +18,9 @@ The loop (:func:`run_unknown_image_episode`), per step:
    updates: a stop ends the episode; a ``"matched"`` goal, or a ``"weak"`` one of confidence
    >= ``inspect_confidence`` not inspected before, sends the agent there (A* on the seen free
    space); on arrival it turns to the matched heading and matches again (the stopper needs two
-   consecutive matches: the one that sent it and this one, or two here); a place that does
-   not then stop the agent is not inspected again. A weaker match (confidence >= ``goal_min_confidence``) becomes the explorer's
+   consecutive matches: the one that sent it and this one; after a first match at the place it
+   turns one step, 11.5 degrees, so the second comes from another view and a grown map); a
+   place that does not then stop the agent is not inspected again. A weaker match (confidence >= ``goal_min_confidence``) becomes the explorer's
    goal score, ``confidence * exp(-d^2 / (2 goal_sigma^2))`` around the matched pose (RNR-Map's
    latent score, from the localiser instead of a learned heat map);
 2. without a path, the :class:`~navbench.plan.explore.Explorer` picks a frontier viewpoint;
@@ -243,8 +244,11 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                 if d.stop and oracle_target is None:
                     end, stop_step = "stopped", steps
                     break
-                if d.reason == "confirming":  # at the place, matched once: confirm next step
+                if d.reason == "confirming":  # at the place, matched once: turn one step, match again
                     rematch = True
+                    if step(Control(cfg.controller.max_turn, float(pose[2]), 0.0)):
+                        end = "stuck"
+                        break
                     continue
             if mode == "face" and place is not None:  # inspected and not stopped: reject the place
                 rejected.append(place[:2].copy())
