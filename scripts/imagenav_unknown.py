@@ -41,10 +41,14 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--max-steps", type=int, default=500)
     ap.add_argument("--log", action="store_true", help="print every goal match of every episode")
+    ap.add_argument("--ids", default="", help="comma-separated task ids to run instead (diagnosis)")
     args = ap.parse_args()
     level = resolve_level(args.level)
     lo, hi = BANDS[args.difficulty]
     tasks = [t for t in load_tasks(find_task_file(level.name, 200)) if lo <= t.optimal_length < hi][: args.tasks]
+    if args.ids:
+        ids = {int(v) for v in args.ids.split(",")}
+        tasks = [t for t in load_tasks(find_task_file(level.name, 200)) if t.id in ids]
     cfg = ImageNavConfig(max_steps=args.max_steps, **ABLATIONS[args.ablation])
     full = voxelize_level(level)
     cam = RaycastCamera(level, HALF_CAMERA)
