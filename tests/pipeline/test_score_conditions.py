@@ -118,8 +118,13 @@ def test_a_run_without_a_recorded_episode_config_is_labelled_unrecorded(tmp_path
     assert set(table["conditions"]) == {UNRECORDED_CONDITIONS}
 
 
-def test_score_cli_states_the_conditions(two_conditions, tmp_path):
+def test_score_cli_states_the_conditions(two_conditions, tmp_path, monkeypatch):
+    from navbench.cli._common import console
     from navbench.cli.main import app
+
+    # The CLI's console is built once, at import, and reads COLUMNS then: whichever test imports
+    # it first fixes its width. Widen it here so the conditions label is never wrapped.
+    monkeypatch.setattr(console, "_width", 250)
 
     url = two_conditions.url
     runner = CliRunner()
@@ -131,11 +136,10 @@ def test_score_cli_states_the_conditions(two_conditions, tmp_path):
     res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--format", "csv"])
     header = res.stdout.splitlines()[0].split(",")
     assert "conditions" in header and len(res.stdout.strip().splitlines()) == 9
-    wide = {"COLUMNS": "250"}
-    res = runner.invoke(app, ["score", "--db", url, "--boot", "50"], env=wide)
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50"])
     assert res.exit_code == 0 and "never pooled" in res.stdout and PAPER in res.stdout
     assert "defaults" in res.stdout  # the conditions column of the default rows
-    res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--run", "1"], env=wide)
+    res = runner.invoke(app, ["score", "--db", url, "--boot", "50", "--run", "1"])
     assert res.exit_code == 0 and f"conditions: {DEFAULTS}" in res.stdout
     assert "never pooled" not in res.stdout
 
