@@ -73,7 +73,7 @@ import numpy as np
 
 from navbench.errors import ConfigError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, MAX_RANGE, Frame, Intrinsics
-from navbench.worldmodel.grid import DEFAULT_TAU, VoxelMap
+from navbench.worldmodel.grid import DEFAULT_TAU, VoxelMap, band_heights
 from navbench.worldmodel.gridspec import GridSpec
 
 
@@ -462,20 +462,6 @@ def fuse_frame_reference(fused: FusedMap, frame: Frame, pose, intrinsics: Intrin
 
 # ------------------------------------------------------------------------------ planning view
 
-def _heights(spec: GridSpec, mode: str, z_low: float, z_high: float, height: float) -> np.ndarray:
-    """The heights (m) :func:`~navbench.worldmodel.grid.occupancy_slice` evaluates."""
-    zs = spec.centres(2)
-    if mode == "slice":
-        heights = np.array([height], float)
-    elif mode == "band":
-        if z_high < z_low:
-            raise ConfigError(f"occupancy band: z_high {z_high} < z_low {z_low}")
-        heights = np.concatenate([[z_low, z_high], zs[(zs > z_low) & (zs < z_high)]])
-    else:
-        raise ConfigError(f"unknown occupancy slice mode {mode!r}; choose 'band' or 'slice'")
-    return heights
-
-
 def _z_stencil(spec: GridSpec, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(k0, t)``: the lower cell index and weight of each height (the grid's clamped rule)."""
     nz = spec.shape[2]
@@ -488,7 +474,7 @@ def slice_heights(spec: GridSpec, mode: str = "band", z_low: float = 0.05, z_hig
                   height: float = CAMERA_HEIGHT) -> np.ndarray:
     """The ``z`` cell indices :func:`~navbench.worldmodel.grid.occupancy_slice` reads (the two
     cell centres around every height it evaluates), sorted, unique."""
-    k0, t = _z_stencil(spec, _heights(spec, mode, z_low, z_high, height))
+    k0, t = _z_stencil(spec, band_heights(spec, mode, z_low, z_high, height))
     return np.unique(np.concatenate([k0[t < 1], (k0 + 1)[t > 0]]))
 
 
@@ -501,7 +487,7 @@ def column_slice(vmap: VoxelMap, mode: str = "band", z_low: float = 0.05, z_high
     cells it mixes in a neighbour column with a weight of ~1e-14; the results are equal except
     where ``f`` is within that of ``tau`` (never on a fused map: unseen cells keep
     :data:`UNSEEN_MARGIN` from it; tested)."""
-    k0, t = _z_stencil(vmap.spec, _heights(vmap.spec, mode, z_low, z_high, height))
+    k0, t = _z_stencil(vmap.spec, band_heights(vmap.spec, mode, z_low, z_high, height))
     best = None
     for k, w in zip(k0.tolist(), t.tolist()):
         f = vmap.occ[:, :, k].astype(np.float64) * (1 - w) + vmap.occ[:, :, k + 1].astype(np.float64) * w

@@ -26,7 +26,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from navbench.errors import ArtifactError
+from navbench.errors import ArtifactError, ConfigError
 from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE
 from navbench.worldmodel.gridspec import GridSpec
 
@@ -176,6 +176,19 @@ def trilinear(values: np.ndarray, spec: GridSpec, points) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ slices
 
+def band_heights(spec: GridSpec, mode: str, z_low: float, z_high: float,
+                 height: float) -> np.ndarray:
+    """The heights (m) :func:`occupancy_slice` evaluates: ``[height]`` for ``mode="slice"``;
+    for ``mode="band"`` the band ends and every cell centre strictly inside the band."""
+    if mode == "slice":
+        return np.array([height], float)
+    if mode != "band":
+        raise ConfigError(f"unknown occupancy slice mode {mode!r}; choose 'band' or 'slice'")
+    if z_high < z_low:
+        raise ConfigError(f"occupancy band: z_high {z_high} < z_low {z_low}")
+    zs = spec.centres(2)
+    return np.concatenate([[z_low, z_high], zs[(zs > z_low) & (zs < z_high)]])
+
 def occupancy_slice(vmap: VoxelMap, mode: str = "band", z_low: float = 0.05,
                     z_high: float = 1.0, height: float = CAMERA_HEIGHT):
     """Horizontal occupancy of the map for planning (appendix B), on the grid's ``xy`` cells.
@@ -190,19 +203,8 @@ def occupancy_slice(vmap: VoxelMap, mode: str = "band", z_low: float = 0.05,
     coordinates ``xs (nx,)``, ``ys (ny,)`` in metres.
     """
     spec = vmap.spec
-    xs, ys, zs = spec.centres(0), spec.centres(1), spec.centres(2)
-    if mode == "slice":
-        heights = np.array([height], float)
-    elif mode == "band":
-        if z_high < z_low:
-            from navbench.errors import ConfigError
-
-            raise ConfigError(f"occupancy band: z_high {z_high} < z_low {z_low}")
-        heights = np.concatenate([[z_low, z_high], zs[(zs > z_low) & (zs < z_high)]])
-    else:
-        from navbench.errors import ConfigError
-
-        raise ConfigError(f"unknown occupancy slice mode {mode!r}; choose 'band' or 'slice'")
+    xs, ys = spec.centres(0), spec.centres(1)
+    heights = band_heights(spec, mode, z_low, z_high, height)
     best = None
     for z in heights:
         X, Y = np.meshgrid(xs, ys, indexing="ij")
@@ -293,7 +295,6 @@ def _check_declared(z, spec: GridSpec, path: Path) -> None:
     match ``spec``, and the arrays fit in the available memory."""
     from numpy.lib import format as npy
 
-    from navbench.errors import ConfigError
     from navbench.worldmodel.memory import check_memory
 
     for name, want in (("occ", spec.shape), ("col", spec.shape + (3,))):
