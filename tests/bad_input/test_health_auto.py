@@ -32,3 +32,17 @@ def test_bad_collisions_mode_is_refused_before_anything_runs(tmp_path, monkeypat
              "--trajectories", "1", "--no-store", "--collisions", "bounce")
     assert_clean_error(res, "--collisions", "bounce")
     assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.parametrize("option, shown", [
+    ("ours.health_min_inliers=sometimes", "'sometimes'"), ("ours.bogus=1", "bogus"),
+    ("ours.reference_scale=2", "reference_scale"), ("dynamics.x=1", "takes no options"),
+])
+def test_bad_option_values_are_refused_before_anything_runs(tmp_path, monkeypatch, option, shown):
+    """An option's value is checked before the level is built, views collected or a map fitted
+    (house-1 has no file here: a later check would have tried to build it first)."""
+    monkeypatch.chdir(tmp_path)
+    res = nb("track-eval", "house-1", "--estimators", "ours,dynamics", "--steps", "3",
+             "--trajectories", "1", "--no-store", "-o", option)
+    assert_clean_error(res, "--option", shown)
+    assert not (tmp_path / "results").exists()
