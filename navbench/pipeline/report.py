@@ -191,6 +191,9 @@ def _level_file(levels_dir: Path, name: str, meta: dict | None) -> Path | None:
     return None
 
 
+RUNS_SHOWN = 10  # rows of the page's runs table (runs.csv has every run)
+
+
 def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
     page.h2("Runs", "runs")
     if runs.empty:
@@ -208,8 +211,12 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
         caption += ("; status running: the run had not finished when this page was written (a "
                     "`navbench all` run is marked done before it draws its report, so this is "
                     "another command, still running or killed)")
+    shown = t.drop(columns=["proc_start"], errors="ignore")
+    if len(shown) > RUNS_SHOWN:  # a long-lived database: the page shows the newest, the CSV all
+        caption += f"; the newest {RUNS_SHOWN} of {len(shown)} runs, every run in runs.csv"
+        shown = shown.tail(RUNS_SHOWN)
     # proc_start (the liveness token of a running run) is in runs.csv, not in the page's width
-    page.table(t, "runs", caption, display=t.drop(columns=["proc_start"], errors="ignore"))
+    page.table(t, "runs", caption, display=shown)
     for _, r in runs.tail(5).iterrows():
         page.sections.append(
             f"<details><summary>Resolved config of run {int(r['id'])} ({html.escape(str(r['command']))}, "

@@ -195,6 +195,22 @@ def test_a_running_run_is_explained(synthetic):
     assert "had not finished when this page was written" in text
 
 
+def test_a_long_run_history_shows_the_newest_runs_and_keeps_all_in_the_csv(tmp_path):
+    from navbench.pipeline.report import RUNS_SHOWN
+
+    with ResultsDB(f"sqlite:///{tmp_path / 'h.db'}") as db:
+        ids = [db.start_run(f"p{k}", f"navbench all --profile p{k}", {}, "e" * 64)
+               for k in range(RUNS_SHOWN + 3)]
+        for i in ids:
+            db.finish_run(i)
+        index = build_report(db, tmp_path / "out", levels_dir=tmp_path / "nolevels")
+    runs_html = index.read_text().split('id="runs"')[1].split("<h2")[0]
+    shown = re.findall(r"navbench all --profile p(\d+)", runs_html.split("</figure>")[0])
+    assert shown == [str(k) for k in range(3, RUNS_SHOWN + 3)]
+    assert f"the newest {RUNS_SHOWN} of {RUNS_SHOWN + 3} runs" in runs_html
+    assert list(pd.read_csv(tmp_path / "out" / "runs.csv")["id"]) == ids
+
+
 def test_bench_history_puts_runs_side_by_side(tmp_path):
     """Three bench runs, two devices, a metric missing from one run: one column per run, oldest
     first, the last BENCH_HISTORY_RUNS only."""
