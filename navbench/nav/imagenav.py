@@ -42,6 +42,7 @@ import numpy as np
 
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, wrap_angle
 from navbench.nav.controller import ControllerConfig, controller_step
+from navbench.nav.episode import EpisodeRecord
 from navbench.nav.stop import GoalStopper, StopConfig
 from navbench.plan.astar import plan_path
 from navbench.plan.explore import Explorer, ExplorerConfig, seen_free
@@ -84,6 +85,32 @@ class ImageEpisode:
     known: np.ndarray
     goal_pose: np.ndarray | None
     match_log: list = field(default_factory=list)  # (step, status, confidence, rival, distance m)
+    # (T, 3) the controls given to the simulator (turn rad, direction rad, speed m), and per-step
+    # milliseconds: "sim" the simulator step, "estimate" the map update from its frame
+    # (reveal_frame), "plan" what the agent computed before that step (goal matching, explorer,
+    # A*, controller)
+    controls: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    timings_ms: dict = field(default_factory=dict)
+    goal_status: str = "none"   # the last goal match's status (navbench.nav.stop.GoalMatch)
+    goal_confidence: float = float("nan")  # and its confidence
+
+
+@dataclass
+class OnlineEpisodeRecord(EpisodeRecord):
+    """An :class:`~navbench.nav.episode.EpisodeRecord` of the unknown-house loop in the pipeline
+    (:mod:`navbench.pipeline.stages.online`), plus the last
+    goal match (``goal_status`` of :class:`~navbench.nav.stop.GoalMatch`, its confidence, the
+    matched pose's distance to the true target ``goal_err_m``, NaN without one), the goal
+    ``goal_heading`` (rad), ``matches`` run, ``seen_share`` of the free cells seen and ``known
+    (nx, ny)`` the seen cells."""
+
+    goal_status: str = "none"
+    goal_confidence: float = float("nan")
+    goal_err_m: float = float("nan")
+    goal_heading: float = float("nan")
+    matches: int = 0
+    seen_share: float = float("nan")
+    known: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), bool))
 
 
 class SeenMap:
@@ -177,12 +204,15 @@ def _goal_score(match, cfg: ImageNavConfig):
 
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),
                               intrinsics: Intrinsics = HALF_CAMERA, full_map=None,
-                              oracle_target=None) -> ImageEpisode:
+                              oracle_target=None, simulator=None) -> ImageEpisode:
     """One episode from ``start (3,)`` to the place ``goal`` shows (module docstring).
     ``full_map``: the level voxelised (:func:`~navbench.worldmodel.grid.voxelize_level`), passed
     in to share it across episodes. ``oracle_target (2,)``: RNR-Map's "GT stopper" ablation
     (Table 4): the agent stops as soon as its true position is within ``success_radius`` of it
-    (Euclidean; the paper's reads the geodesic distance), and never by its own decision."""
+    (Euclidean; the paper's reads the geodesic distance), and never by its own decision.
+    ``simulator``: a :class:`~navbench.sim.world.Simulator` of ``level`` rendering ``intrinsics``
+    frames (its noise and seed; default noise ``none``, seed 0); the agent reads its TRUE pose."""
+    import time
     from dataclasses import replace
 
     from navbench.localize import LocalizationError, Localizer, LocalizerConfig
@@ -198,7 +228,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     explorer = Explorer(ecfg)
     stopper = GoalStopper(goal, cfg.stop)
     loc_cfg = LocalizerConfig(lattice_step=cfg.lattice_step)
-    sim = Simulator(level, "none", 0, intrinsics)
+    sim = simulator if simulator is not None else Simulator(level, "none", 0, intrinsics)
     frame = sim.reset(np.asarray(start, np.float64))
     pose = np.asarray(sim.pose, np.float64).copy()
     reveal_frame(known, xs, ys, pose, frame, intrinsics)
@@ -209,19 +239,31 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     rejected: list[np.ndarray] = []
     end, stop_step = "step-limit", -1
     guard, log = 0, []
-    for _ in range(cfg.look_around):  # turn in place once around: the camera sees 94 degrees
-        res = sim.step(Control(math.radians(360.0 / max(cfg.look_around, 1)), float(pose[2]), 0.0))
+    controls: list[tuple[float, float, float]] = []
+    ms: dict[str, list[float]] = {"sim": [], "estimate": [], "plan": []}
+    clock = [time.perf_counter()]  # end of the last step: what the agent computed since is "plan"
+
+    def execute(control) -> bool:
+        nonlocal pose
+        t0 = time.perf_counter()
+        res = sim.step(control)
+        t1 = time.perf_counter()
         pose = np.asarray(res.pose, np.float64).copy()
         poses.append(pose.copy())
+        controls.append((float(control.turn), float(control.direction), float(control.speed)))
         reveal_frame(known, xs, ys, pose, res.frame, intrinsics)
+        t2 = time.perf_counter()
+        ms["plan"].append((t0 - clock[0]) * 1e3)
+        ms["sim"].append((t1 - t0) * 1e3)
+        ms["estimate"].append((t2 - t1) * 1e3)
+        clock[0] = t2
+        return bool(res.collided)
+
+    for _ in range(cfg.look_around):  # turn in place once around: the camera sees 94 degrees
+        execute(Control(math.radians(360.0 / max(cfg.look_around, 1)), float(pose[2]), 0.0))
 
     def step(control) -> bool:
-        nonlocal pose
-        res = sim.step(clip_control(control, pose[2]))
-        pose = np.asarray(res.pose, np.float64).copy()
-        poses.append(pose.copy())
-        reveal_frame(known, xs, ys, pose, res.frame, intrinsics)
-        return bool(res.collided)
+        return execute(clip_control(control, pose[2]))
 
     while len(poses) - 1 < cfg.max_steps and guard < 4 * cfg.max_steps:
         guard += 1
@@ -289,7 +331,11 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     free = ~truth
     return ImageEpisode(np.asarray(poses), end, matches, stop_step,
                         float((known & free).sum() / max(int(free.sum()), 1)), known,
-                        None if match is None or match.pose is None else match.pose.copy(), log)
+                        None if match is None or match.pose is None else match.pose.copy(), log,
+                        np.asarray(controls, np.float64).reshape(-1, 3),
+                        {k: np.asarray(v, np.float64) for k, v in ms.items()},
+                        "none" if match is None else str(match.status),
+                        float("nan") if match is None else float(match.confidence))
 
 
 def score_image_episode(ep: ImageEpisode, target_xy, optimal_length: float,

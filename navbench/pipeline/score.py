@@ -191,7 +191,9 @@ def with_conditions(frame: "pandas.DataFrame", runs: "pandas.DataFrame") -> "pan
     ``condition_key`` (a hash) also covers them but cannot be read back. Scoring groups and
     pairs by this label too, so episodes of different conditions never share a row."""
     configs = dict(zip(runs["id"], runs["config"])) if not runs.empty else {}
-    labels = {rid: conditions_label(cfg.get("episode") if isinstance(cfg, dict) else None)
+    from navbench.pipeline.stages.online import online_label
+
+    labels = {rid: conditions_label(cfg.get("episode") if isinstance(cfg, dict) else None) + online_label(cfg)
               for rid, cfg in configs.items()}
     return frame.assign(conditions=[labels.get(int(r), UNRECORDED_CONDITIONS) for r in frame["run_id"]])
 

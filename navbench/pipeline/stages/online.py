@@ -1,0 +1,160 @@
+"""``run-navigation --goal image --map online``: the unknown-house image-goal loop in the pipeline
+(issue 15 §3 and §5).
+
+Per task of the level's task set, the agent starts with no map and runs
+:func:`navbench.nav.imagenav.run_unknown_image_episode`: it looks around, explores, matches the
+goal image (:func:`navbench.nav.imagegoal.render_goal`, heading :func:`~navbench.nav.imagegoal.goal_heading`,
+as the known-map path) against the map seen so far and stops by its own decision. Each episode is
+one ``episodes`` row, stored, keyed and resumed like every other (the navigation stage): the cell
+key adds ``{"online": ...}`` (the sensing model and the loop's full :class:`ImageNavConfig`), so
+no key of another map mode changes and no online row shares a cell or a setup with them.
+
+The sensing and pose model is explicit (:class:`OnlineConfig`), part of the key and of the
+``conditions`` label :mod:`navbench.pipeline.score` groups by (:func:`online_label`):
+
+* ``mapping = "perfect"``: what the agent knows of a cell it has seen is the truth (the level's
+  ``true-map`` artifact, the voxelized true geometry); only coverage is earned
+  (:func:`~navbench.nav.imagenav.reveal_frame`). No fusion error, no depth noise.
+* ``pose = "true"``: the agent reads the simulator's true pose (the ``gt`` estimator; the only
+  estimator this mode accepts); the profile's noise still perturbs the executed motion.
+
+The episode is stored as an :class:`OnlineEpisodeRecord` (an
+:class:`~navbench.nav.episode.EpisodeRecord` plus the goal match and the seen cells); its
+``end_reason`` is ``"reached"`` when the agent stopped (the STOP action the ``nrns`` and
+``habitat`` presets need), else the loop's (``"step-limit"``, ``"stuck"``, ``"explored"``: the
+house was seen and the goal never matched). ``success`` / ``spl_term`` stored are the ``paper``
+rule's, as for every row; ``score --preset nrns`` (this mode's default) rescores them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from navbench.errors import ConfigError
+
+#: ``--map`` values of the unknown-house loop -> the mapping model they select.
+ONLINE_MAPS = {"online": "perfect"}
+MAPPINGS = ("perfect",)
+POSES = ("true",)
+#: The estimator the loop's pose model is (``pose = "true"``).
+ONLINE_ESTIMATOR = "gt"
+#: The scoring preset of this map mode when the profile keeps the default ``paper``.
+ONLINE_PRESET = "nrns"
+
+
+@dataclass(frozen=True)
+class OnlineConfig:
+    """The unknown-house loop's sensing model: ``mapping`` (``perfect``: a seen cell reads the
+    true geometry) and ``pose`` (``true``: the simulator's pose). See the module docstring."""
+
+    mapping: str = "perfect"
+    pose: str = "true"
+
+    def __post_init__(self):
+        if self.mapping not in MAPPINGS:
+            raise ConfigError(f"online mapping: unknown {self.mapping!r}; choose one of {list(MAPPINGS)}")
+        if self.pose not in POSES:
+            raise ConfigError(f"online pose: unknown {self.pose!r}; choose one of {list(POSES)}")
+
+
+def is_online(map_source: str) -> bool:
+    """Whether ``--map`` selects the unknown-house loop."""
+    return map_source in ONLINE_MAPS
+
+
+def online_config(map_source: str) -> OnlineConfig | None:
+    """The :class:`OnlineConfig` of a ``--map`` value (``None``: not an online map)."""
+    return OnlineConfig(mapping=ONLINE_MAPS[map_source]) if is_online(map_source) else None
+
+
+def online_profile(profile, log=None):
+    """``profile`` checked for ``--map online`` (unchanged for any other map): the goal must be
+    an image and the estimators ``gt`` (:class:`ConfigError` naming the option otherwise); the
+    default ``paper`` preset becomes :data:`ONLINE_PRESET` (logged)."""
+    import dataclasses
+
+    if not is_online(profile.map_source):
+        return profile
+    m = profile.map_source
+    if profile.goal != "image":
+        raise ConfigError(f"--map {m}: the unknown-house loop navigates to an image goal; use --goal image "
+                          f"(got --goal {profile.goal}; a point goal in an unknown house is not implemented)")
+    if tuple(profile.estimators) != (ONLINE_ESTIMATOR,):
+        raise ConfigError(f"--map {m}: the unknown-house loop reads the true pose (estimator "
+                          f"{ONLINE_ESTIMATOR}); use --estimators {ONLINE_ESTIMATOR} (got "
+                          f"{','.join(profile.estimators)}; tracking inside the loop is not implemented)")
+    if profile.scoring_preset == "paper":
+        if log is not None:
+            log(f"--map {m}: scoring preset {ONLINE_PRESET} (the agent stops on its own; "
+                "'paper' needs no stop)")
+        profile = dataclasses.replace(profile, scoring_preset=ONLINE_PRESET)
+    return profile
+
+
+def loop_config(episode_overrides: dict):
+    """The loop's :class:`~navbench.nav.imagenav.ImageNavConfig`: its defaults with the episode
+    config's ``max_steps`` (500 unless ``[navigation.episode] max_steps`` says otherwise)."""
+    from navbench.nav.imagenav import ImageNavConfig
+    from navbench.pipeline.stages.grid import build_episode_config
+
+    return ImageNavConfig(max_steps=int(build_episode_config(episode_overrides).max_steps))
+
+
+def online_key_part(cfg) -> dict:
+    """What the unknown-house loop adds to the cell and condition keys of a
+    :class:`~navbench.pipeline.stages.grid.NavigationConfig`: nothing unless ``cfg.online``."""
+    from navbench.config import to_jsonable
+
+    if getattr(cfg, "online", None) is None:
+        return {}
+    return {"online": {**to_jsonable(cfg.online), "loop": to_jsonable(loop_config(cfg.episode))}}
+
+
+def online_label(run_config) -> str:
+    """The suffix the ``conditions`` label of a run's episodes gets (``""`` unless its recorded
+    profile config says ``map_source`` online): ``", map=online, mapping=perfect, pose=true"``."""
+    if not isinstance(run_config, dict):
+        return ""
+    cfg = online_config(str(run_config.get("map_source", "")))
+    return "" if cfg is None else f", map={run_config['map_source']}, mapping={cfg.mapping}, pose={cfg.pose}"
+
+
+def run_online_episode(level, full_map, task, simulator, intrinsics, cfg: OnlineConfig, loop,
+                       goal_seed: int, noise: str, seed: int):
+    """One unknown-house episode of ``task`` (module docstring) in ``simulator`` (built for
+    ``level`` rendering ``intrinsics``); ``full_map`` the true-map world model the perfect
+    sensor reads; ``loop`` the :class:`~navbench.nav.imagenav.ImageNavConfig`. Returns an
+    :class:`~navbench.nav.imagenav.OnlineEpisodeRecord`."""
+    import numpy as np
+
+    from navbench.nav.imagegoal import goal_heading, render_goal
+    from navbench.nav.imagenav import OnlineEpisodeRecord, run_unknown_image_episode
+
+    goal = render_goal(level, task, intrinsics, goal_seed)
+    ep = run_unknown_image_episode(level, np.asarray(task.start, np.float64), goal, loop, intrinsics,
+                                   full_map, simulator=simulator)
+    collided = ep.end_reason == "stuck"
+    err = float("nan") if ep.goal_pose is None else float(math.dist(ep.goal_pose[:2], task.target[:2]))
+    return OnlineEpisodeRecord(
+        level=level.name, task_id=int(task.id), estimator=ONLINE_ESTIMATOR, noise=noise, seed=int(seed),
+        start=np.asarray(task.start, np.float64), target=np.asarray(task.target, np.float64),
+        optimal_length=float(task.optimal_length), true_poses=ep.true_poses, est_poses=ep.true_poses.copy(),
+        controls=ep.controls, collided=collided, collision_step=len(ep.controls) - 1 if collided else -1,
+        plan=np.zeros((0, 2)), replans=0, end_reason="reached" if ep.end_reason == "stopped" else ep.end_reason,
+        timings_ms=ep.timings_ms, plan_status="explore", goal_status=ep.goal_status,
+        goal_confidence=ep.goal_confidence, goal_err_m=err, goal_heading=goal_heading(goal_seed, task.id),
+        matches=int(ep.matches), seen_share=float(ep.seen_share), known=np.asarray(ep.known, bool))
+
+
+def online_row_fields(record) -> dict:
+    """The goal columns of an online episode's ``episodes`` row (``{}`` for another record)."""
+    if not hasattr(record, "goal_status"):  # an OnlineEpisodeRecord (imported lazily: numba)
+        return {}
+
+    def num(x):
+        return None if x is None or x != x else float(x)
+
+    return {"goal": "image", "goal_status": f"online-{record.goal_status}",
+            "goal_err_m": num(record.goal_err_m), "goal_confidence": num(record.goal_confidence),
+            "goal_heading": num(record.goal_heading)}
