@@ -95,10 +95,10 @@ def online_profile(profile, log=None):
 def loop_config(episode_overrides: dict):
     """The loop's :class:`~navbench.nav.imagenav.ImageNavConfig`: its defaults with the episode
     config's ``max_steps`` (500 unless ``[navigation.episode] max_steps`` says otherwise)."""
+    from navbench.nav.episode import EpisodeConfig
     from navbench.nav.imagenav import ImageNavConfig
-    from navbench.pipeline.stages.grid import build_episode_config
 
-    return ImageNavConfig(max_steps=int(build_episode_config(episode_overrides).max_steps))
+    return ImageNavConfig(max_steps=int(dict(episode_overrides).get("max_steps", EpisodeConfig().max_steps)))
 
 
 def online_key_part(cfg) -> dict:
