@@ -180,3 +180,32 @@ def test_online_profile_rules():
         online_profile(dataclasses.replace(p, estimators=("gt", "ours")))
     assert online_label({"map_source": "online"}) == ", map=online, mapping=perfect, pose=true"
     assert online_label({"map_source": "fit"}) == online_label(None) == ""
+
+
+def test_online_rows_never_pool_with_known_map_rows(tmp_path):
+    """Same level, estimator, noise, goal and tasks, one run on a known map and one online: the
+    score table and the difficulty table keep them apart by their conditions label."""
+    from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.score import difficulty_table, select_episodes, summarise
+    from navbench.pipeline.score_presets import apply_preset
+    from tests.pipeline.test_db import episode
+
+    db = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    try:
+        for cell, source, ok in (("known", "true", True), ("online", "online", False)):
+            run = db.start_run("p", "probe", {"episode": {}, "map_source": source}, cell)
+            db.add_episodes(run, [episode(cell, t, estimator="gt", success=ok, goal="image",
+                                          final_dist_m=0.1 if ok else 3.0, final_geo_m=0.1 if ok else 3.0,
+                                          condition_key=cell) for t in range(3)])
+            db.finish_run(run)
+        frame = apply_preset(select_episodes(db), "nrns")
+    finally:
+        db.close()
+    table = summarise(frame, n_boot=20)
+    mine = table[table["level"] == "l1"]
+    assert len(mine) == 2 and sorted(mine["success_rate"]) == [0.0, 1.0]
+    online = mine[mine["conditions"].str.endswith("map=online, mapping=perfect, pose=true")]
+    assert online["success_rate"].tolist() == [0.0] and online["episodes"].tolist() == [3]
+    by = difficulty_table(frame)
+    cells = by[(by["level"] == "l1") & (by["difficulty"] == "all")]
+    assert len(cells) == 2 and sorted(cells["success_rate"]) == [0.0, 1.0]
