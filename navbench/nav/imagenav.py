@@ -87,7 +87,7 @@ class ImageEpisode:
     match_log: list = field(default_factory=list)  # (step, status, confidence, rival, distance m)
     # (T, 3) the controls given to the simulator (turn rad, direction rad, speed m), and per-step
     # milliseconds: "sim" the simulator step, "estimate" the map update from its frame
-    # (reveal_frame), "plan" what the agent computed before that step (goal matching, explorer,
+    # (reveal_frame or the fusion), "plan" what the agent computed before that step (goal matching, explorer,
     # A*, controller)
     controls: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     timings_ms: dict = field(default_factory=dict)
@@ -184,6 +184,63 @@ def reveal_frame(known: np.ndarray, xs, ys, pose, frame: Frame, intrinsics: Intr
     known[ix[ok], iy[ok]] = True
 
 
+MAPPINGS = ("perfect", "fused")
+
+
+class _Mapper:
+    """What the agent knows of the house: ``known (nx, ny)`` planning cells, ``occupied`` (the
+    known obstacles) and ``model()`` (the world model the localiser matches against).
+
+    ``perfect``: :func:`reveal_frame` marks the seen cells, what a seen cell holds is the truth
+    (``full``). ``fused``: every frame is fused at the (true) pose into a
+    :class:`~navbench.worldmodel.fusion.FusedMap` on ``full``'s grid (its default
+    :class:`~navbench.worldmodel.fusion.FusionConfig`), and ``known`` / ``occupied`` are its
+    :func:`~navbench.worldmodel.fusion.seen_slice`: the depth camera's own map, no truth."""
+
+    def __init__(self, mapping: str, full, truth, xs, ys, intrinsics, camera_height):
+        if mapping not in MAPPINGS:
+            raise ValueError(f"mapping: expected one of {MAPPINGS}, got {mapping!r}")
+        self.mapping, self.full, self.truth, self.xs, self.ys = mapping, full, truth, xs, ys
+        self.intrinsics, self.camera_height = intrinsics, camera_height
+        self.known = np.zeros_like(truth)
+        self._occupied = None
+        self.fused = None
+        if mapping == "fused":
+            from navbench.worldmodel.fusion import FusedMap
+
+            self.fused = FusedMap.empty(full.spec)
+
+    def update(self, pose, frame: Frame) -> None:
+        if self.fused is None:
+            reveal_frame(self.known, self.xs, self.ys, pose, frame, self.intrinsics)
+            return
+        self.fused.fuse(frame, pose, self.intrinsics, self.camera_height)
+        self._occupied = None  # seen_slice on demand
+
+    def _slice(self) -> None:
+        from navbench.worldmodel.fusion import seen_slice
+
+        known, self._occupied = seen_slice(self.fused)
+        self.known[...] = known
+
+    @property
+    def occupied(self) -> np.ndarray:
+        if self.fused is None:
+            return self.truth & self.known
+        if self._occupied is None:
+            self._slice()
+        return self._occupied
+
+    def current_known(self) -> np.ndarray:
+        if self.fused is not None and self._occupied is None:
+            self._slice()
+        return self.known
+
+    def model(self) -> SeenMap:
+        known = self.current_known()
+        return SeenMap(self.full if self.fused is None else self.fused.vmap, known)
+
+
 def _worth_a_look(match, rejected, cfg: ImageNavConfig) -> bool:
     """Go to a matched place (``"matched"``), or inspect a weak match of confidence at least
     ``inspect_confidence`` that is not within ``distinct_radius`` of a place inspected before."""
@@ -204,14 +261,16 @@ def _goal_score(match, cfg: ImageNavConfig):
 
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),
                               intrinsics: Intrinsics = HALF_CAMERA, full_map=None,
-                              oracle_target=None, simulator=None) -> ImageEpisode:
+                              oracle_target=None, simulator=None, mapping: str = "perfect") -> ImageEpisode:
     """One episode from ``start (3,)`` to the place ``goal`` shows (module docstring).
     ``full_map``: the level voxelised (:func:`~navbench.worldmodel.grid.voxelize_level`), passed
     in to share it across episodes. ``oracle_target (2,)``: RNR-Map's "GT stopper" ablation
     (Table 4): the agent stops as soon as its true position is within ``success_radius`` of it
     (Euclidean; the paper's reads the geodesic distance), and never by its own decision.
     ``simulator``: a :class:`~navbench.sim.world.Simulator` of ``level`` rendering ``intrinsics``
-    frames (its noise and seed; default noise ``none``, seed 0); the agent reads its TRUE pose."""
+    frames (its noise and seed; default noise ``none``, seed 0); the agent reads its TRUE pose.
+    ``mapping``: ``perfect`` (the module docstring) or ``fused`` (the frames fused at the true
+    pose into a TSDF map, :class:`_Mapper`: what the agent knows is what its camera measured)."""
     import time
     from dataclasses import replace
 
@@ -223,15 +282,16 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     cfg = config
     full = full_map if full_map is not None else voxelize_level(level)
     truth, xs, ys = full.occupancy_slice("band")
-    known = np.zeros_like(truth)
+    sim = simulator if simulator is not None else Simulator(level, "none", 0, intrinsics)
+    mapper = _Mapper(mapping, full, truth, xs, ys, intrinsics, sim.camera_height)
+    known = mapper.known  # updated in place
     ecfg = cfg.explorer if cfg.exploration_score else replace(cfg.explorer, explore_weight=0.0, near_weight=0.0)
     explorer = Explorer(ecfg)
     stopper = GoalStopper(goal, cfg.stop)
     loc_cfg = LocalizerConfig(lattice_step=cfg.lattice_step)
-    sim = simulator if simulator is not None else Simulator(level, "none", 0, intrinsics)
     frame = sim.reset(np.asarray(start, np.float64))
     pose = np.asarray(sim.pose, np.float64).copy()
-    reveal_frame(known, xs, ys, pose, frame, intrinsics)
+    mapper.update(pose, frame)
     poses = [pose.copy()]
     waypoints, target = None, None
     mode, place = "explore", None  # "explore" | "approach" (path to place) | "face" (turn to its heading)
@@ -251,7 +311,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
         pose = np.asarray(res.pose, np.float64).copy()
         poses.append(pose.copy())
         controls.append((float(control.turn), float(control.direction), float(control.speed)))
-        reveal_frame(known, xs, ys, pose, res.frame, intrinsics)
+        mapper.update(pose, res.frame)
         t2 = time.perf_counter()
         ms["plan"].append((t0 - clock[0]) * 1e3)
         ms["sim"].append((t1 - t0) * 1e3)
@@ -275,7 +335,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
             rematch, last_match = False, steps
             d = None
             try:
-                loc = Localizer.build(SeenMap(full, known), intrinsics, sim.camera_height, loc_cfg)
+                loc = Localizer.build(mapper.model(), intrinsics, sim.camera_height, loc_cfg)
                 d = stopper.update(loc, pose)
             except LocalizationError:
                 pass
@@ -296,7 +356,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                 rejected.append(place[:2].copy())
                 mode, waypoints = "explore", None
             if d is not None and _worth_a_look(d.match, rejected, cfg) and approaches < cfg.max_approaches:
-                plan = plan_path(~seen_free(known, truth & known), xs, ys, pose[:2], d.match.pose[:2],
+                plan = plan_path(~seen_free(mapper.current_known(), mapper.occupied), xs, ys, pose[:2], d.match.pose[:2],
                                  ecfg.planner)
                 if plan.ok:
                     mode, place, waypoints, approaches = "approach", d.match.pose.copy(), plan.waypoints, approaches + 1
@@ -315,7 +375,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                 mode, waypoints = "face", None
                 continue
             gs = _goal_score(match, cfg) if cfg.goal_score else None
-            dec = explorer.decide(known, truth & known, xs, ys, pose[:2], gs)
+            dec = explorer.decide(mapper.current_known(), mapper.occupied, xs, ys, pose[:2], gs)
             if dec.status == "done":
                 end = "explored"
                 break
@@ -328,6 +388,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
         if step(control):
             end = "stuck"
             break
+    known = mapper.current_known()
     free = ~truth
     return ImageEpisode(np.asarray(poses), end, matches, stop_step,
                         float((known & free).sum() / max(int(free.sum()), 1)), known,

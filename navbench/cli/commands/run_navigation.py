@@ -26,9 +26,11 @@ def register(app: typer.Typer) -> None:
                                     f"{default('start a local Ray instance')}."),
         map_source: str = typer.Option(None, "--map", help="fit (the fitted world model), true "
                                        "(the voxelized true geometry), a map file (.npz; {level} "
-                                       "stands for the level's name) or online (no prior map: the "
+                                       "stands for the level's name), online (no prior map: the "
                                        "unknown-house loop maps as it goes, with --goal image; "
                                        "perfect mapping at the true pose, estimator gt, nrns preset) "
+                                       "or online-fused (the same, its RGB-D frames fused into a "
+                                       "TSDF map at the true pose) "
                                        f"{profile_default('map_source')}."),
         goal: str = typer.Option(None, "--goal", help="point (the task's coordinates) or image (the "
                                  "goal image, localised in the map the agent plans on) "

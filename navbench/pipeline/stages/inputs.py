@@ -34,11 +34,12 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
     fitted world model), ``true`` (the voxelized true geometry; no views are collected) or a
     map file path, where ``{level}`` stands for the level's name (:func:`map_file_stage`)."""
     source = profile.map_source
-    if source not in ("fit", "true", "online") and LEVEL_PLACEHOLDER not in source and len(set(profile.levels)) > 1:
+    if source not in ("fit", "true", "online", "online-fused") and LEVEL_PLACEHOLDER not in source and len(set(profile.levels)) > 1:
         raise ConfigError(f"--map {source}: one map file for {len(set(profile.levels))} levels; "
                           f"put {LEVEL_PLACEHOLDER} in the path for one map per level")
     level = make_level_stage(ctx, LevelConfig(level_name, profile.level_seed))
-    if source in ("true", "online"):  # online: what the perfect sensor reads (stages.online)
+    if source in ("true", "online", "online-fused"):  # online: the truth the loop scores (and
+        # its perfect sensor reads) against (stages.online)
         return LevelInputs(level, true_map_stage(ctx, level),
                            sample_tasks_stage(ctx, level, tasks_config(profile)))
     if source != "fit":

@@ -15,6 +15,10 @@ The sensing and pose model is explicit (:class:`OnlineConfig`), part of the key 
 * ``mapping = "perfect"``: what the agent knows of a cell it has seen is the truth (the level's
   ``true-map`` artifact, the voxelized true geometry); only coverage is earned
   (:func:`~navbench.nav.imagenav.reveal_frame`). No fusion error, no depth noise.
+* ``mapping = "fused"`` (``--map online-fused``): every frame is fused at the true pose into a
+  TSDF voxel map (:class:`~navbench.worldmodel.fusion.FusedMap`, default settings); the agent
+  plans, explores and matches the goal on what its depth camera measured
+  (:func:`~navbench.worldmodel.fusion.seen_slice`), never on the truth.
 * ``pose = "true"``: the agent reads the simulator's true pose (the ``gt`` estimator; the only
   estimator this mode accepts); the profile's noise still perturbs the executed motion.
 
@@ -34,8 +38,8 @@ from dataclasses import dataclass
 from navbench.errors import ConfigError
 
 #: ``--map`` values of the unknown-house loop -> the mapping model they select.
-ONLINE_MAPS = {"online": "perfect"}
-MAPPINGS = ("perfect",)
+ONLINE_MAPS = {"online": "perfect", "online-fused": "fused"}
+MAPPINGS = ("perfect", "fused")
 POSES = ("true",)
 #: The estimator the loop's pose model is (``pose = "true"``).
 ONLINE_ESTIMATOR = "gt"
@@ -46,7 +50,8 @@ ONLINE_PRESET = "nrns"
 @dataclass(frozen=True)
 class OnlineConfig:
     """The unknown-house loop's sensing model: ``mapping`` (``perfect``: a seen cell reads the
-    true geometry) and ``pose`` (``true``: the simulator's pose). See the module docstring."""
+    true geometry; ``fused``: the frames fused into a TSDF map) and ``pose`` (``true``: the
+    simulator's pose). See the module docstring."""
 
     mapping: str = "perfect"
     pose: str = "true"
@@ -133,7 +138,7 @@ def run_online_episode(level, full_map, task, simulator, intrinsics, cfg: Online
 
     goal = render_goal(level, task, intrinsics, goal_seed)
     ep = run_unknown_image_episode(level, np.asarray(task.start, np.float64), goal, loop, intrinsics,
-                                   full_map, simulator=simulator)
+                                   full_map, simulator=simulator, mapping=cfg.mapping)
     collided = ep.end_reason == "stuck"
     err = float("nan") if ep.goal_pose is None else float(math.dist(ep.goal_pose[:2], task.target[:2]))
     return OnlineEpisodeRecord(
