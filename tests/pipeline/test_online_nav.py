@@ -159,6 +159,10 @@ def test_online_cells_are_keyed_apart_and_other_keys_unchanged():
                               episode={"max_steps": 400})
     assert online_key_part(longer)["online"]["loop"]["max_steps"] == 400
     assert make_cells([li], longer)[0].key != o.key
+    fused = NavigationConfig(estimators=("gt",), goal="image", image_goal=ImageGoalConfig(),
+                             online=OnlineConfig(mapping="fused"))
+    f = make_cells([li], fused)[0]
+    assert f.key != o.key and f.condition_key != o.condition_key
 
 
 def test_online_profile_rules():
@@ -179,7 +183,12 @@ def test_online_profile_rules():
     with pytest.raises(ConfigError, match="--estimators gt"):
         online_profile(dataclasses.replace(p, estimators=("gt", "ours")))
     assert online_label({"map_source": "online"}) == ", map=online, mapping=perfect, pose=true"
+    assert online_label({"map_source": "online-fused"}) == ", map=online-fused, mapping=fused, pose=true"
     assert online_label({"map_source": "fit"}) == online_label(None) == ""
+    with pytest.raises(ConfigError, match="mapping"):
+        from navbench.pipeline.stages.online import OnlineConfig
+
+        OnlineConfig(mapping="noisy")
 
 
 def test_online_rows_never_pool_with_known_map_rows(tmp_path):
