@@ -194,8 +194,14 @@ class _Mapper:
     ``perfect``: :func:`reveal_frame` marks the seen cells, what a seen cell holds is the truth
     (``full``). ``fused``: every frame is fused at the (true) pose into a
     :class:`~navbench.worldmodel.fusion.FusedMap` on ``full``'s grid (its default
-    :class:`~navbench.worldmodel.fusion.FusionConfig`), and ``known`` / ``occupied`` are its
-    :func:`~navbench.worldmodel.fusion.seen_slice`: the depth camera's own map, no truth."""
+    :class:`~navbench.worldmodel.fusion.FusionConfig`); ``occupied`` is its
+    :func:`~navbench.worldmodel.fusion.seen_slice` (what the depth camera measured, never the
+    truth) and ``known`` the slice's known cells plus the cells the frames' columns looked
+    across (:func:`reveal_frame` up to the measured surface, ``behind = 0``). The camera cannot
+    see the body band within ~0.6 m of itself (nor the floor there), so without the rays' 2D
+    coverage the agent's own surroundings stay unknown and it cannot plan out of its first
+    view; with it, a low obstacle that no frame measured on a ray's way is taken as free (the
+    2D projection frontier exploration uses)."""
 
     def __init__(self, mapping: str, full, truth, xs, ys, intrinsics, camera_height):
         if mapping not in MAPPINGS:
@@ -209,11 +215,13 @@ class _Mapper:
             from navbench.worldmodel.fusion import FusedMap
 
             self.fused = FusedMap.empty(full.spec)
+            self.rays = np.zeros_like(truth)
 
     def update(self, pose, frame: Frame) -> None:
         if self.fused is None:
             reveal_frame(self.known, self.xs, self.ys, pose, frame, self.intrinsics)
             return
+        reveal_frame(self.rays, self.xs, self.ys, pose, frame, self.intrinsics, behind=0.0)
         self.fused.fuse(frame, pose, self.intrinsics, self.camera_height)
         self._occupied = None  # seen_slice on demand
 
@@ -221,7 +229,7 @@ class _Mapper:
         from navbench.worldmodel.fusion import seen_slice
 
         known, self._occupied = seen_slice(self.fused)
-        self.known[...] = known
+        self.known[...] = known | self.rays
 
     @property
     def occupied(self) -> np.ndarray:

@@ -45,6 +45,8 @@ POSES = ("true",)
 ONLINE_ESTIMATOR = "gt"
 #: The scoring preset of this map mode when the profile keeps the default ``paper``.
 ONLINE_PRESET = "nrns"
+#: Bumped when the loop gives other episodes for the same settings (part of the cell key).
+LOOP_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -113,7 +115,12 @@ def online_key_part(cfg) -> dict:
 
     if getattr(cfg, "online", None) is None:
         return {}
-    return {"online": {**to_jsonable(cfg.online), "loop": to_jsonable(loop_config(cfg.episode))}}
+    part = {**to_jsonable(cfg.online), "loop": to_jsonable(loop_config(cfg.episode)), "version": LOOP_VERSION}
+    if cfg.online.mapping == "fused":  # the fusion's settings and version (its grids change with them)
+        from navbench.worldmodel.fusion import FUSION_VERSION, FusionConfig
+
+        part["fusion"] = {**to_jsonable(FusionConfig()), "version": FUSION_VERSION}
+    return {"online": part}
 
 
 def online_label(run_config) -> str:
