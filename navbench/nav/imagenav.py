@@ -1,11 +1,13 @@
-"""A first unknown-house image-goal episode on the TRUE sensing model (issue 15 section 3, a
-stepping stone; the online fusion of section 3 replaces :class:`SeenMap` when it lands).
+"""The unknown-house image-goal episode (issue 15 section 3) at the TRUE pose; in the pipeline:
+``run-navigation --goal image --map online|online-fused`` (:mod:`navbench.pipeline.stages.online`).
 
-What the agent knows. It starts with no map. After every step its camera frame *reveals* the
-planning-grid cells it saw (:func:`reveal_frame`: along each image column's horizontal
-direction, every cell up to the farthest valid pixel of the column); what it knows about a seen
-cell is the truth (the level voxelised on the world model's grid, :func:`voxelize_level`), so
-mapping is perfect and only *coverage* is earned. The pose is the simulator's (no tracking
+What the agent knows. It starts with no map. With ``mapping="perfect"`` (the default), after
+every step its camera frame *reveals* the planning-grid cells it saw (:func:`reveal_frame`:
+along each image column's horizontal direction, every cell up to the farthest valid pixel of
+the column); what it knows about a seen cell is the truth (the level voxelised on the world
+model's grid, :func:`voxelize_level`), so mapping is perfect and only *coverage* is earned.
+With ``mapping="fused"`` every frame is fused into a TSDF voxel map instead and the agent plans
+and matches on what it measured (:class:`_Mapper`). The pose is the simulator's (no tracking
 noise). Everything the agent decides comes from the seen map and the goal image: no oracle.
 
 The loop (:func:`run_unknown_image_episode`), per step:
