@@ -95,6 +95,7 @@ class ImageEpisode:
     timings_ms: dict = field(default_factory=dict)
     goal_status: str = "none"   # the last goal match's status (navbench.nav.stop.GoalMatch)
     goal_confidence: float = float("nan")  # and its confidence
+    est_poses: np.ndarray | None = None  # (T + 1, 3) the poses the agent believed (None: the true ones)
 
 
 @dataclass
@@ -205,18 +206,22 @@ class _Mapper:
     view; with it, a low obstacle that no frame measured on a ray's way is taken as free (the
     2D projection frontier exploration uses)."""
 
-    def __init__(self, mapping: str, full, truth, xs, ys, intrinsics, camera_height):
+    def __init__(self, mapping: str, full, truth, xs, ys, intrinsics, camera_height, tracker=None):
         if mapping not in MAPPINGS:
             raise ValueError(f"mapping: expected one of {MAPPINGS}, got {mapping!r}")
+        if tracker is not None and mapping != "fused":
+            raise ValueError("a tracker tracks against the fused map: mapping must be 'fused'")
         self.mapping, self.full, self.truth, self.xs, self.ys = mapping, full, truth, xs, ys
         self.intrinsics, self.camera_height = intrinsics, camera_height
         self.known = np.zeros_like(truth)
         self._occupied = None
         self.fused = None
+        self.tracker = tracker
         if mapping == "fused":
             from navbench.worldmodel.fusion import FusedMap
 
-            self.fused = FusedMap.empty(full.spec)
+            # with a tracker, its own map (it fuses each frame at its estimate)
+            self.fused = FusedMap.empty(full.spec) if tracker is None else tracker.fused
             self.rays = np.zeros_like(truth)
 
     def update(self, pose, frame: Frame) -> None:
@@ -224,7 +229,8 @@ class _Mapper:
             reveal_frame(self.known, self.xs, self.ys, pose, frame, self.intrinsics)
             return
         reveal_frame(self.rays, self.xs, self.ys, pose, frame, self.intrinsics, behind=0.0)
-        self.fused.fuse(frame, pose, self.intrinsics, self.camera_height)
+        if self.tracker is None:
+            self.fused.fuse(frame, pose, self.intrinsics, self.camera_height)
         self._occupied = None  # seen_slice on demand
 
     def _slice(self) -> None:
@@ -271,7 +277,8 @@ def _goal_score(match, cfg: ImageNavConfig):
 
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),
                               intrinsics: Intrinsics = HALF_CAMERA, full_map=None,
-                              oracle_target=None, simulator=None, mapping: str = "perfect") -> ImageEpisode:
+                              oracle_target=None, simulator=None, mapping: str = "perfect",
+                              tracker=None) -> ImageEpisode:
     """One episode from ``start (3,)`` to the place ``goal`` shows (module docstring).
     ``full_map``: the level voxelised (:func:`~navbench.worldmodel.grid.voxelize_level`), passed
     in to share it across episodes. ``oracle_target (2,)``: RNR-Map's "GT stopper" ablation
@@ -280,7 +287,12 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     ``simulator``: a :class:`~navbench.sim.world.Simulator` of ``level`` rendering ``intrinsics``
     frames (its noise and seed; default noise ``none``, seed 0); the agent reads its TRUE pose.
     ``mapping``: ``perfect`` (the module docstring) or ``fused`` (the frames fused at the true
-    pose into a TSDF map, :class:`_Mapper`: what the agent knows is what its camera measured)."""
+    pose into a TSDF map, :class:`_Mapper`: what the agent knows is what its camera measured).
+    ``tracker``: tracking and mapping together (``mapping="fused"`` only): a
+    :class:`~navbench.track.slam.OnlineMapping` (e.g. ``ours`` from
+    :func:`~navbench.track.slam.online_estimator` on ``full_map``'s grid), reset at the true
+    start pose; the agent then acts on its estimate, and each frame is fused at the estimate.
+    The oracle stopper reads the true pose."""
     import time
     from dataclasses import replace
 
@@ -293,7 +305,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     full = full_map if full_map is not None else voxelize_level(level)
     truth, xs, ys = full.occupancy_slice("band")
     sim = simulator if simulator is not None else Simulator(level, "none", 0, intrinsics)
-    mapper = _Mapper(mapping, full, truth, xs, ys, intrinsics, sim.camera_height)
+    mapper = _Mapper(mapping, full, truth, xs, ys, intrinsics, sim.camera_height, tracker)
     known = mapper.known  # updated in place
     ecfg = cfg.explorer if cfg.exploration_score else replace(cfg.explorer, explore_weight=0.0, near_weight=0.0)
     explorer = Explorer(ecfg)
@@ -301,8 +313,11 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     loc_cfg = LocalizerConfig(lattice_step=cfg.lattice_step)
     frame = sim.reset(np.asarray(start, np.float64))
     pose = np.asarray(sim.pose, np.float64).copy()
+    if tracker is not None:
+        tracker.reset(pose, frame)
     mapper.update(pose, frame)
     poses = [pose.copy()]
+    beliefs = [pose.copy()]
     waypoints, target = None, None
     mode, place = "explore", None  # "explore" | "approach" (path to place) | "face" (turn to its heading)
     match, matches, approaches, rematch, last_match = None, 0, 0, True, 0
@@ -318,8 +333,9 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
         t0 = time.perf_counter()
         res = sim.step(control)
         t1 = time.perf_counter()
-        pose = np.asarray(res.pose, np.float64).copy()
-        poses.append(pose.copy())
+        poses.append(np.asarray(res.pose, np.float64).copy())
+        pose = poses[-1].copy() if tracker is None else np.asarray(tracker.update(control, res.frame), np.float64).copy()
+        beliefs.append(pose.copy())
         controls.append((float(control.turn), float(control.direction), float(control.speed)))
         mapper.update(pose, res.frame)
         t2 = time.perf_counter()
@@ -338,7 +354,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     while len(poses) - 1 < cfg.max_steps and guard < 4 * cfg.max_steps:
         guard += 1
         steps = len(poses) - 1
-        if oracle_target is not None and math.dist(pose[:2], np.asarray(oracle_target)[:2]) <= cfg.success_radius:
+        if oracle_target is not None and math.dist(poses[-1][:2], np.asarray(oracle_target)[:2]) <= cfg.success_radius:
             end, stop_step = "stopped", steps
             break
         if rematch or (mode == "explore" and steps - last_match >= cfg.match_every):
@@ -406,7 +422,8 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                         np.asarray(controls, np.float64).reshape(-1, 3),
                         {k: np.asarray(v, np.float64) for k, v in ms.items()},
                         "none" if match is None else str(match.status),
-                        float("nan") if match is None else float(match.confidence))
+                        float("nan") if match is None else float(match.confidence),
+                        None if tracker is None else np.asarray(beliefs))
 
 
 def score_image_episode(ep: ImageEpisode, target_xy, optimal_length: float,
