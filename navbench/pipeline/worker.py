@@ -68,7 +68,8 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
             from navbench.pipeline.stages.online import loop_config, run_online_episode
 
             record = run_online_episode(level, vmap, task, sim, intr, spec.online, loop_config(c.episode),
-                                        spec.goal_seed, c.noise, job.seed)
+                                        spec.goal_seed, c.noise, job.seed, c.estimator,
+                                        job.estimator_seed, c.options)
         elif goals is None:
             record = run_episode(level, occ2d, xs, ys, task, est, sim, config=ep_cfg)
         else:  # plan and track to the goal found in the map; scored against the true target

@@ -218,3 +218,48 @@ def test_online_rows_never_pool_with_known_map_rows(tmp_path):
     by = difficulty_table(frame)
     cells = by[(by["level"] == "l1") & (by["difficulty"] == "all")]
     assert len(cells) == 2 and sorted(cells["success_rate"]) == [0.0, 1.0]
+
+
+def test_tracked_pose_inside_the_loop():
+    """``online-fused`` with ``ours``: the agent tracks against the map it builds (no true pose
+    after the start); the record keeps both trajectories. ``online`` (perfect) refuses it."""
+    from navbench.errors import ConfigError
+    from navbench.geometry import HALF_CAMERA
+    from navbench.nav.imagenav import ImageNavConfig
+    from navbench.pipeline.stages.online import OnlineConfig, online_label, run_online_episode
+    from navbench.plan.tasks import sample_tasks
+    from navbench.sim.world import Simulator
+    from navbench.worldmodel.grid import voxelize_level
+
+    level = tiny_level()
+    full = voxelize_level(level)
+    task = sample_tasks(level, 1, 0)[0]
+    loop = ImageNavConfig(max_steps=40)
+    rec = run_online_episode(level, full, task, Simulator(level, "mid", 5, HALF_CAMERA), HALF_CAMERA,
+                             OnlineConfig("fused"), loop, 0, "mid", 0, "ours", 7)
+    assert rec.estimator == "ours" and rec.true_poses.shape == rec.est_poses.shape
+    np.testing.assert_array_equal(rec.est_poses[0], rec.true_poses[0])  # reset at the true start
+    assert (rec.est_poses[1:] != rec.true_poses[1:]).any()  # then its own estimate
+    gt = run_online_episode(level, full, task, Simulator(level, "mid", 5, HALF_CAMERA), HALF_CAMERA,
+                            OnlineConfig("fused"), loop, 0, "mid", 0, "gt")
+    np.testing.assert_array_equal(gt.est_poses, gt.true_poses)
+    with pytest.raises(ConfigError, match="estimator 'ours'"):
+        run_online_episode(level, full, task, Simulator(level, "mid", 5, HALF_CAMERA), HALF_CAMERA,
+                           OnlineConfig("perfect"), loop, 0, "mid", 0, "ours")
+    assert online_label({"map_source": "online-fused", "estimators": ["gt", "ours"]}).endswith("pose=estimator")
+    assert online_label({"map_source": "online-fused", "estimators": ["gt"]}).endswith("pose=true")
+
+
+def test_online_profile_estimators_by_mapping():
+    import dataclasses
+
+    from navbench.errors import ConfigError
+    from navbench.pipeline.profiles import Profile
+    from navbench.pipeline.stages.online import online_profile
+
+    p = Profile(name="x", levels=("house-1",), estimators=("gt", "ours"), map_source="online-fused", goal="image")
+    assert online_profile(p).estimators == ("gt", "ours")
+    with pytest.raises(ConfigError, match="online-fused"):  # perfect mapping: gt only
+        online_profile(dataclasses.replace(p, map_source="online"))
+    with pytest.raises(ConfigError, match="no-map"):
+        online_profile(dataclasses.replace(p, estimators=("no-map",)))

@@ -30,7 +30,8 @@ def register(app: typer.Typer) -> None:
                                        "unknown-house loop maps as it goes, with --goal image; "
                                        "perfect mapping at the true pose, estimator gt, nrns preset) "
                                        "or online-fused (the same, its RGB-D frames fused into a "
-                                       "TSDF map at the true pose) "
+                                       "TSDF map; --estimators gt: at the true pose, ours: tracked "
+                                       "on the map it builds) "
                                        f"{profile_default('map_source')}."),
         goal: str = typer.Option(None, "--goal", help="point (the task's coordinates) or image (the "
                                  "goal image, localised in the map the agent plans on) "
