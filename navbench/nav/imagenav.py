@@ -1,11 +1,13 @@
-"""A first unknown-house image-goal episode on the TRUE sensing model (issue 15 section 3, a
-stepping stone; the online fusion of section 3 replaces :class:`SeenMap` when it lands).
+"""The unknown-house image-goal episode (issue 15 section 3) at the TRUE pose; in the pipeline:
+``run-navigation --goal image --map online|online-fused`` (:mod:`navbench.pipeline.stages.online`).
 
-What the agent knows. It starts with no map. After every step its camera frame *reveals* the
-planning-grid cells it saw (:func:`reveal_frame`: along each image column's horizontal
-direction, every cell up to the farthest valid pixel of the column); what it knows about a seen
-cell is the truth (the level voxelised on the world model's grid, :func:`voxelize_level`), so
-mapping is perfect and only *coverage* is earned. The pose is the simulator's (no tracking
+What the agent knows. It starts with no map. With ``mapping="perfect"`` (the default), after
+every step its camera frame *reveals* the planning-grid cells it saw (:func:`reveal_frame`:
+along each image column's horizontal direction, every cell up to the farthest valid pixel of
+the column); what it knows about a seen cell is the truth (the level voxelised on the world
+model's grid, :func:`voxelize_level`), so mapping is perfect and only *coverage* is earned.
+With ``mapping="fused"`` every frame is fused into a TSDF voxel map instead and the agent plans
+and matches on what it measured (:class:`_Mapper`). The pose is the simulator's (no tracking
 noise). Everything the agent decides comes from the seen map and the goal image: no oracle.
 
 The loop (:func:`run_unknown_image_episode`), per step:
@@ -42,6 +44,7 @@ import numpy as np
 
 from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, wrap_angle
 from navbench.nav.controller import ControllerConfig, controller_step
+from navbench.nav.episode import EpisodeRecord
 from navbench.nav.stop import GoalStopper, StopConfig
 from navbench.plan.astar import plan_path
 from navbench.plan.explore import Explorer, ExplorerConfig, seen_free
@@ -84,6 +87,33 @@ class ImageEpisode:
     known: np.ndarray
     goal_pose: np.ndarray | None
     match_log: list = field(default_factory=list)  # (step, status, confidence, rival, distance m)
+    # (T, 3) the controls given to the simulator (turn rad, direction rad, speed m), and per-step
+    # milliseconds: "sim" the simulator step, "estimate" the map update from its frame
+    # (reveal_frame or the fusion), "plan" what the agent computed before that step (goal matching, explorer,
+    # A*, controller)
+    controls: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    timings_ms: dict = field(default_factory=dict)
+    goal_status: str = "none"   # the last goal match's status (navbench.nav.stop.GoalMatch)
+    goal_confidence: float = float("nan")  # and its confidence
+    est_poses: np.ndarray | None = None  # (T + 1, 3) the poses the agent believed (None: the true ones)
+
+
+@dataclass
+class OnlineEpisodeRecord(EpisodeRecord):
+    """An :class:`~navbench.nav.episode.EpisodeRecord` of the unknown-house loop in the pipeline
+    (:mod:`navbench.pipeline.stages.online`), plus the last
+    goal match (``goal_status`` of :class:`~navbench.nav.stop.GoalMatch`, its confidence, the
+    matched pose's distance to the true target ``goal_err_m``, NaN without one), the goal
+    ``goal_heading`` (rad), ``matches`` run, ``seen_share`` of the free cells seen and ``known
+    (nx, ny)`` the seen cells."""
+
+    goal_status: str = "none"
+    goal_confidence: float = float("nan")
+    goal_err_m: float = float("nan")
+    goal_heading: float = float("nan")
+    matches: int = 0
+    seen_share: float = float("nan")
+    known: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), bool))
 
 
 class SeenMap:
@@ -157,6 +187,76 @@ def reveal_frame(known: np.ndarray, xs, ys, pose, frame: Frame, intrinsics: Intr
     known[ix[ok], iy[ok]] = True
 
 
+MAPPINGS = ("perfect", "fused")
+
+
+class _Mapper:
+    """What the agent knows of the house: ``known (nx, ny)`` planning cells, ``occupied`` (the
+    known obstacles) and ``model()`` (the world model the localiser matches against).
+
+    ``perfect``: :func:`reveal_frame` marks the seen cells, what a seen cell holds is the truth
+    (``full``). ``fused``: every frame is fused at the (true) pose into a
+    :class:`~navbench.worldmodel.fusion.FusedMap` on ``full``'s grid (its default
+    :class:`~navbench.worldmodel.fusion.FusionConfig`); ``occupied`` is its
+    :func:`~navbench.worldmodel.fusion.seen_slice` (what the depth camera measured, never the
+    truth) and ``known`` the slice's known cells plus the cells the frames' columns looked
+    across (:func:`reveal_frame` up to the measured surface, ``behind = 0``). The camera cannot
+    see the body band within ~0.6 m of itself (nor the floor there), so without the rays' 2D
+    coverage the agent's own surroundings stay unknown and it cannot plan out of its first
+    view; with it, a low obstacle that no frame measured on a ray's way is taken as free (the
+    2D projection frontier exploration uses)."""
+
+    def __init__(self, mapping: str, full, truth, xs, ys, intrinsics, camera_height, tracker=None):
+        if mapping not in MAPPINGS:
+            raise ValueError(f"mapping: expected one of {MAPPINGS}, got {mapping!r}")
+        if tracker is not None and mapping != "fused":
+            raise ValueError("a tracker tracks against the fused map: mapping must be 'fused'")
+        self.mapping, self.full, self.truth, self.xs, self.ys = mapping, full, truth, xs, ys
+        self.intrinsics, self.camera_height = intrinsics, camera_height
+        self.known = np.zeros_like(truth)
+        self._occupied = None
+        self.fused = None
+        self.tracker = tracker
+        if mapping == "fused":
+            from navbench.worldmodel.fusion import FusedMap
+
+            # with a tracker, its own map (it fuses each frame at its estimate)
+            self.fused = FusedMap.empty(full.spec) if tracker is None else tracker.fused
+            self.rays = np.zeros_like(truth)
+
+    def update(self, pose, frame: Frame) -> None:
+        if self.fused is None:
+            reveal_frame(self.known, self.xs, self.ys, pose, frame, self.intrinsics)
+            return
+        reveal_frame(self.rays, self.xs, self.ys, pose, frame, self.intrinsics, behind=0.0)
+        if self.tracker is None:
+            self.fused.fuse(frame, pose, self.intrinsics, self.camera_height)
+        self._occupied = None  # seen_slice on demand
+
+    def _slice(self) -> None:
+        from navbench.worldmodel.fusion import seen_slice
+
+        known, self._occupied = seen_slice(self.fused)
+        self.known[...] = known | self.rays
+
+    @property
+    def occupied(self) -> np.ndarray:
+        if self.fused is None:
+            return self.truth & self.known
+        if self._occupied is None:
+            self._slice()
+        return self._occupied
+
+    def current_known(self) -> np.ndarray:
+        if self.fused is not None and self._occupied is None:
+            self._slice()
+        return self.known
+
+    def model(self) -> SeenMap:
+        known = self.current_known()
+        return SeenMap(self.full if self.fused is None else self.fused.vmap, known)
+
+
 def _worth_a_look(match, rejected, cfg: ImageNavConfig) -> bool:
     """Go to a matched place (``"matched"``), or inspect a weak match of confidence at least
     ``inspect_confidence`` that is not within ``distinct_radius`` of a place inspected before."""
@@ -177,12 +277,23 @@ def _goal_score(match, cfg: ImageNavConfig):
 
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),
                               intrinsics: Intrinsics = HALF_CAMERA, full_map=None,
-                              oracle_target=None) -> ImageEpisode:
+                              oracle_target=None, simulator=None, mapping: str = "perfect",
+                              tracker=None) -> ImageEpisode:
     """One episode from ``start (3,)`` to the place ``goal`` shows (module docstring).
     ``full_map``: the level voxelised (:func:`~navbench.worldmodel.grid.voxelize_level`), passed
     in to share it across episodes. ``oracle_target (2,)``: RNR-Map's "GT stopper" ablation
     (Table 4): the agent stops as soon as its true position is within ``success_radius`` of it
-    (Euclidean; the paper's reads the geodesic distance), and never by its own decision."""
+    (Euclidean; the paper's reads the geodesic distance), and never by its own decision.
+    ``simulator``: a :class:`~navbench.sim.world.Simulator` of ``level`` rendering ``intrinsics``
+    frames (its noise and seed; default noise ``none``, seed 0); the agent reads its TRUE pose.
+    ``mapping``: ``perfect`` (the module docstring) or ``fused`` (the frames fused at the true
+    pose into a TSDF map, :class:`_Mapper`: what the agent knows is what its camera measured).
+    ``tracker``: tracking and mapping together (``mapping="fused"`` only): a
+    :class:`~navbench.track.slam.OnlineMapping` (e.g. ``ours`` from
+    :func:`~navbench.track.slam.online_estimator` on ``full_map``'s grid), reset at the true
+    start pose; the agent then acts on its estimate, and each frame is fused at the estimate.
+    The oracle stopper reads the true pose."""
+    import time
     from dataclasses import replace
 
     from navbench.localize import LocalizationError, Localizer, LocalizerConfig
@@ -193,47 +304,64 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     cfg = config
     full = full_map if full_map is not None else voxelize_level(level)
     truth, xs, ys = full.occupancy_slice("band")
-    known = np.zeros_like(truth)
+    sim = simulator if simulator is not None else Simulator(level, "none", 0, intrinsics)
+    mapper = _Mapper(mapping, full, truth, xs, ys, intrinsics, sim.camera_height, tracker)
+    known = mapper.known  # updated in place
     ecfg = cfg.explorer if cfg.exploration_score else replace(cfg.explorer, explore_weight=0.0, near_weight=0.0)
     explorer = Explorer(ecfg)
     stopper = GoalStopper(goal, cfg.stop)
     loc_cfg = LocalizerConfig(lattice_step=cfg.lattice_step)
-    sim = Simulator(level, "none", 0, intrinsics)
     frame = sim.reset(np.asarray(start, np.float64))
     pose = np.asarray(sim.pose, np.float64).copy()
-    reveal_frame(known, xs, ys, pose, frame, intrinsics)
+    if tracker is not None:
+        tracker.reset(pose, frame)
+    mapper.update(pose, frame)
     poses = [pose.copy()]
+    beliefs = [pose.copy()]
     waypoints, target = None, None
     mode, place = "explore", None  # "explore" | "approach" (path to place) | "face" (turn to its heading)
     match, matches, approaches, rematch, last_match = None, 0, 0, True, 0
     rejected: list[np.ndarray] = []
     end, stop_step = "step-limit", -1
     guard, log = 0, []
+    controls: list[tuple[float, float, float]] = []
+    ms: dict[str, list[float]] = {"sim": [], "estimate": [], "plan": []}
+    clock = [time.perf_counter()]  # end of the last step: what the agent computed since is "plan"
+
+    def execute(control) -> bool:
+        nonlocal pose
+        t0 = time.perf_counter()
+        res = sim.step(control)
+        t1 = time.perf_counter()
+        poses.append(np.asarray(res.pose, np.float64).copy())
+        pose = poses[-1].copy() if tracker is None else np.asarray(tracker.update(control, res.frame), np.float64).copy()
+        beliefs.append(pose.copy())
+        controls.append((float(control.turn), float(control.direction), float(control.speed)))
+        mapper.update(pose, res.frame)
+        t2 = time.perf_counter()
+        ms["plan"].append((t0 - clock[0]) * 1e3)
+        ms["sim"].append((t1 - t0) * 1e3)
+        ms["estimate"].append((t2 - t1) * 1e3)
+        clock[0] = t2
+        return bool(res.collided)
+
     for _ in range(cfg.look_around):  # turn in place once around: the camera sees 94 degrees
-        res = sim.step(Control(math.radians(360.0 / max(cfg.look_around, 1)), float(pose[2]), 0.0))
-        pose = np.asarray(res.pose, np.float64).copy()
-        poses.append(pose.copy())
-        reveal_frame(known, xs, ys, pose, res.frame, intrinsics)
+        execute(Control(math.radians(360.0 / max(cfg.look_around, 1)), float(pose[2]), 0.0))
 
     def step(control) -> bool:
-        nonlocal pose
-        res = sim.step(clip_control(control, pose[2]))
-        pose = np.asarray(res.pose, np.float64).copy()
-        poses.append(pose.copy())
-        reveal_frame(known, xs, ys, pose, res.frame, intrinsics)
-        return bool(res.collided)
+        return execute(clip_control(control, pose[2]))
 
     while len(poses) - 1 < cfg.max_steps and guard < 4 * cfg.max_steps:
         guard += 1
         steps = len(poses) - 1
-        if oracle_target is not None and math.dist(pose[:2], np.asarray(oracle_target)[:2]) <= cfg.success_radius:
+        if oracle_target is not None and math.dist(poses[-1][:2], np.asarray(oracle_target)[:2]) <= cfg.success_radius:
             end, stop_step = "stopped", steps
             break
         if rematch or (mode == "explore" and steps - last_match >= cfg.match_every):
             rematch, last_match = False, steps
             d = None
             try:
-                loc = Localizer.build(SeenMap(full, known), intrinsics, sim.camera_height, loc_cfg)
+                loc = Localizer.build(mapper.model(), intrinsics, sim.camera_height, loc_cfg)
                 d = stopper.update(loc, pose)
             except LocalizationError:
                 pass
@@ -254,7 +382,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                 rejected.append(place[:2].copy())
                 mode, waypoints = "explore", None
             if d is not None and _worth_a_look(d.match, rejected, cfg) and approaches < cfg.max_approaches:
-                plan = plan_path(~seen_free(known, truth & known), xs, ys, pose[:2], d.match.pose[:2],
+                plan = plan_path(~seen_free(mapper.current_known(), mapper.occupied), xs, ys, pose[:2], d.match.pose[:2],
                                  ecfg.planner)
                 if plan.ok:
                     mode, place, waypoints, approaches = "approach", d.match.pose.copy(), plan.waypoints, approaches + 1
@@ -273,7 +401,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
                 mode, waypoints = "face", None
                 continue
             gs = _goal_score(match, cfg) if cfg.goal_score else None
-            dec = explorer.decide(known, truth & known, xs, ys, pose[:2], gs)
+            dec = explorer.decide(mapper.current_known(), mapper.occupied, xs, ys, pose[:2], gs)
             if dec.status == "done":
                 end = "explored"
                 break
@@ -286,10 +414,16 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
         if step(control):
             end = "stuck"
             break
+    known = mapper.current_known()
     free = ~truth
     return ImageEpisode(np.asarray(poses), end, matches, stop_step,
                         float((known & free).sum() / max(int(free.sum()), 1)), known,
-                        None if match is None or match.pose is None else match.pose.copy(), log)
+                        None if match is None or match.pose is None else match.pose.copy(), log,
+                        np.asarray(controls, np.float64).reshape(-1, 3),
+                        {k: np.asarray(v, np.float64) for k, v in ms.items()},
+                        "none" if match is None else str(match.status),
+                        float("nan") if match is None else float(match.confidence),
+                        None if tracker is None else np.asarray(beliefs))
 
 
 def score_image_episode(ep: ImageEpisode, target_xy, optimal_length: float,

@@ -50,7 +50,7 @@ from navbench.nav.presets import DIFFICULTY_BANDS, PRESETS, check_preset_steps
 PROFILES_DIR = Path(__file__).resolve().parent.parent / "profiles"
 DEFAULT_PROFILE = "quick"
 NOISE_NAMES = ("none", "low", "mid", "high", "tracking")
-MAP_SOURCES = ("fit", "true")
+MAP_SOURCES = ("fit", "true", "online", "online-fused")
 
 # Limits (the paper: 5000 views, 10 000 fit steps, 200 tasks, 1 seed, 6 x 3 x 3 cells).
 MAX_VIEWS = 100_000          # views per collection

@@ -11,6 +11,27 @@ from navbench.nav.presets import PRESETS
 
 #: Goal images drawn per level in the report.
 GOAL_IMAGES_PER_LEVEL = 4
+#: ``goal_status`` of ``--map online`` rows: the last goal match (navbench.pipeline.stages.online).
+ONLINE_PREFIX = "online-"
+
+
+def _online_goals(page: Any, rows) -> None:
+    """``--map online`` (no prior map): per level and conditions, the last goal match of each
+    episode (matched / weak / ambiguous / none), the episodes the agent stopped and the median
+    distance of the last matched goal to the true one."""
+    from navbench.pipeline.score import short_conditions
+
+    rows = rows.assign(match=rows["goal_status"].astype(str).str.removeprefix(ONLINE_PREFIX),
+                       conditions=[short_conditions(c) for c in rows.get("conditions", ["unrecorded"] * len(rows))])
+    keys = ["level", "conditions"]
+    counts = (rows.groupby([*keys, "match"]).size().unstack(fill_value=0)
+              .reindex(columns=["matched", "weak", "ambiguous", "none"], fill_value=0))
+    counts["stopped"] = rows.assign(s=rows["end_reason"].eq("reached")).groupby(keys)["s"].sum()
+    counts["median error (m)"] = rows.groupby(keys)["goal_err_m"].median()
+    page.table(counts, "goal_online", "Image goals in an unknown house (--map online; conditions name "
+               "the sensing model): the agent's last goal match per episode, the episodes it stopped "
+               "by its own decision and the median distance of its last matched goal to the true one",
+               index=True, digits=3)
 
 
 def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=None) -> None:
@@ -36,12 +57,17 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
     if "goal_status" not in episodes.columns or episodes["goal"].eq("image").sum() == 0:
         return
     img = episodes[episodes["goal"] == "image"]
-    counts = (img.groupby(["level", "goal_status"]).size().unstack(fill_value=0)
-              .reindex(columns=["ok", "ambiguous", "failed"], fill_value=0))
-    counts["median error (m)"] = img.groupby("level")["goal_err_m"].median()
-    page.table(counts, "goal_localization", "Image goals: localisation of the goal image in the "
-               "map per episode (ok / ambiguous / failed) and the median distance of the found goal "
-               "to the true one", index=True, digits=3)
+    online = img["goal_status"].astype(str).str.startswith(ONLINE_PREFIX)
+    known = img[~online]
+    if not known.empty:
+        counts = (known.groupby(["level", "goal_status"]).size().unstack(fill_value=0)
+                  .reindex(columns=["ok", "ambiguous", "failed"], fill_value=0))
+        counts["median error (m)"] = known.groupby("level")["goal_err_m"].median()
+        page.table(counts, "goal_localization", "Image goals: localisation of the goal image in the "
+                   "map per episode (ok / ambiguous / failed) and the median distance of the found goal "
+                   "to the true one", index=True, digits=3)
+    if online.any():
+        _online_goals(page, img[online])
     if levels_dir is None or tasks is None or tasks.empty or "goal_heading" not in img.columns:
         return
     for level, g in img.dropna(subset=["goal_heading"]).groupby("level", sort=True):

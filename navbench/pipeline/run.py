@@ -143,7 +143,14 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
     cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
                            seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
                            estimator_options=dict(profile.estimator_options), goal=profile.goal)
-    if cfg.goal == "image":  # issue 15: every task's goal image localised in the level's map
+    from navbench.pipeline.stages.online import online_config
+
+    online = online_config(profile.map_source)
+    if online is not None:  # issue 15 §5: the unknown-house loop; no goal is localised beforehand
+        from navbench.pipeline.stages.goals import ImageGoalConfig
+
+        cfg = dataclasses.replace(cfg, image_goal=ImageGoalConfig(camera=profile.camera), online=online)
+    elif cfg.goal == "image":  # issue 15: every task's goal image localised in the level's map
         from navbench.pipeline.stages.goals import ImageGoalConfig
         from navbench.pipeline.stages.inputs import with_image_goals
 
@@ -234,6 +241,9 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
         raise ConfigError("report_dir: a report is published only with until='report'")
     prof = profile if isinstance(profile, Profile) else load_profile(profile)
     prof = override(prof, workers=workers)
+    from navbench.pipeline.stages.online import online_profile
+
+    prof = online_profile(prof, (progress or SilentProgress()).log)  # --map online: checked, nrns
     protected = protected_paths(db if db is None or isinstance(db, str) else db.url, cache_root)
     if report_dir is not None:
         check_report_dir(report_dir, "--report", protected)  # before hours of work, not after

@@ -191,7 +191,9 @@ def with_conditions(frame: "pandas.DataFrame", runs: "pandas.DataFrame") -> "pan
     ``condition_key`` (a hash) also covers them but cannot be read back. Scoring groups and
     pairs by this label too, so episodes of different conditions never share a row."""
     configs = dict(zip(runs["id"], runs["config"])) if not runs.empty else {}
-    labels = {rid: conditions_label(cfg.get("episode") if isinstance(cfg, dict) else None)
+    from navbench.pipeline.stages.online import online_label
+
+    labels = {rid: conditions_label(cfg.get("episode") if isinstance(cfg, dict) else None) + online_label(cfg)
               for rid, cfg in configs.items()}
     return frame.assign(conditions=[labels.get(int(r), UNRECORDED_CONDITIONS) for r in frame["run_id"]])
 
@@ -533,25 +535,26 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
 
 def difficulty_table(frame: "pandas.DataFrame", preset: str = "paper") -> "pandas.DataFrame":
     """Success rate (with its exact 95 % interval), SPL, SoftSPL and mean final distance per
-    (level, estimator variant, noise, goal, difficulty), with pooled ``level = "all"`` and
-    ``difficulty = "all"`` rows; columns ``preset``, ``level``, ``estimator``, ``noise``,
+    (level, estimator variant, noise, conditions, goal, difficulty), with pooled ``level = "all"``
+    and ``difficulty = "all"`` rows; columns ``preset``, ``level``, ``estimator``, ``noise``,
     ``goal``, ``difficulty``, ``episodes``, ``success_rate``, ``success_rate_ci_low``,
-    ``success_rate_ci_high``, ``spl``, ``soft_spl``, ``final_dist_m``."""
+    ``success_rate_ci_high``, ``spl``, ``soft_spl``, ``final_dist_m``, ``conditions`` (as in
+    :func:`summarise`: episodes of other conditions or map modes never pool)."""
     import pandas as pd
 
     from navbench.pipeline.score_presets import DIFFICULTY_ORDER, GOAL_ORDER, apply_preset
 
     cols = ["preset", "level", "estimator", "noise", "goal", "difficulty", "episodes", "success_rate",
-            "success_rate_ci_low", "success_rate_ci_high", "spl", "soft_spl", "final_dist_m"]
+            "success_rate_ci_low", "success_rate_ci_high", "spl", "soft_spl", "final_dist_m", "conditions"]
     f = frame if "soft_spl_term" in frame.columns else apply_preset(frame, preset)
     name = f.attrs.get("preset", preset)
     if f.empty:
         return pd.DataFrame(columns=cols)
-    f = f.assign(variant=estimator_variants(f), success=f["success"].astype(float))
+    f = f.assign(variant=estimator_variants(f), success=f["success"].astype(float), conditions=_conditions_of(f))
     out = []
     levels = [(lvl, g) for lvl, g in f.groupby("level", sort=True)] + [("all", f)]
     for lvl, g in levels:
-        for (est, noise, goal), cell in g.groupby(["variant", "noise", "goal"], sort=False):
+        for (est, noise, conds, goal), cell in g.groupby(["variant", "noise", "conditions", "goal"], sort=False):
             parts = [(d, c) for d, c in cell.groupby("difficulty", sort=False)] + [("all", cell)]
             for diff, c in parts:
                 ok = c["success"].to_numpy(dtype=float)
@@ -560,9 +563,11 @@ def difficulty_table(frame: "pandas.DataFrame", preset: str = "paper") -> "panda
                             "difficulty": diff, "episodes": int(len(c)), "success_rate": float(ok.mean()),
                             "success_rate_ci_low": lo, "success_rate_ci_high": hi,
                             "spl": float(c["spl_term"].astype(float).mean()),
-                            "soft_spl": _finite_mean(c["soft_spl_term"]), "final_dist_m": _finite_mean(c["dist_to_goal_m"])})
+                            "soft_spl": _finite_mean(c["soft_spl_term"]), "final_dist_m": _finite_mean(c["dist_to_goal_m"]),
+                            "conditions": conds})
     table = pd.DataFrame(out, columns=cols)
-    key = [(r.level == "all", r.level, _order_key(r.noise, NOISE_ORDER), _order_key(r.goal, GOAL_ORDER),
+    key = [(r.level == "all", r.level, _order_key(r.noise, NOISE_ORDER), _conditions_order(r.conditions),
+            _order_key(r.goal, GOAL_ORDER),
             _order_key(r.estimator.split("{")[0], ESTIMATOR_ORDER), r.estimator,
             _order_key(r.difficulty, DIFFICULTY_ORDER)) for r in table.itertuples()]
     return table.iloc[sorted(range(len(table)), key=lambda i: key[i])].reset_index(drop=True)

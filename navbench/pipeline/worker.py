@@ -55,14 +55,22 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
     for job in spec.jobs:
         c = job.cell
         ep_cfg = build_episode_config(c.episode)
-        frames = uses_frames(c.estimator)  # estimators that never look at frames skip rendering
+        # estimators that never look at frames skip rendering; the unknown-house loop maps from them
+        frames = uses_frames(c.estimator) or spec.online is not None
         sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
                         camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
                         pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check)
-        est = make_estimator(c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT,
-                             renderer=None, seed=job.estimator_seed, **c.options)
+        est = None if spec.online is not None else make_estimator(
+            c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT, renderer=None,
+            seed=job.estimator_seed, **c.options)
         task = tasks[job.task_id]
-        if goals is None:
+        if spec.online is not None:  # the unknown-house loop: no prior map, the true pose
+            from navbench.pipeline.stages.online import loop_config, run_online_episode
+
+            record = run_online_episode(level, vmap, task, sim, intr, spec.online, loop_config(c.episode),
+                                        spec.goal_seed, c.noise, job.seed, c.estimator,
+                                        job.estimator_seed, c.options)
+        elif goals is None:
             record = run_episode(level, occ2d, xs, ys, task, est, sim, config=ep_cfg)
         else:  # plan and track to the goal found in the map; scored against the true target
             from navbench.nav.imagegoal import run_image_goal_episode

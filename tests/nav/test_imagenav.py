@@ -98,3 +98,23 @@ def test_gt_stopper_ablation_stops_by_the_oracle_only(twin_episode):
     ep = run_unknown_image_episode(level, near, goal, ImageNavConfig(max_steps=60), oracle_target=goal_pose[:2])
     # the oracle stops it right after the look-around, before any match of its own
     assert ep.end_reason == "stopped" and ep.stop_step == ImageNavConfig().look_around and ep.matches == 0
+
+
+def test_fused_mapping_never_reads_the_truth(twin_episode):
+    """``mapping="fused"``: the agent's map is what its frames measured. Given a wrong "truth"
+    (an empty house on the same grid), the episode is the same: the truth only scores it."""
+    level, goal_pose, start, goal = twin_episode
+    full = voxelize_level(level)
+    empty = type(full)(full.spec, np.zeros_like(full.occ), full.col, full.tau, dict(full.meta))
+    cfg = ImageNavConfig(max_steps=70)
+    a = run_unknown_image_episode(level, start, goal, cfg, full_map=full, mapping="fused")
+    b = run_unknown_image_episode(level, start, goal, cfg, full_map=empty, mapping="fused")
+    np.testing.assert_array_equal(a.true_poses, b.true_poses)
+    np.testing.assert_array_equal(a.known, b.known)
+    assert a.match_log == b.match_log and len(a.controls) == len(a.true_poses) - 1
+    assert a.known.any() and 0 < a.seen_share <= 1
+    # and it is not the perfect sensor's map: the fused known cells differ from the reveal's
+    p = run_unknown_image_episode(level, start, goal, ImageNavConfig(max_steps=32), full_map=full)
+    f = run_unknown_image_episode(level, start, goal, ImageNavConfig(max_steps=32), full_map=full, mapping="fused")
+    np.testing.assert_array_equal(p.true_poses, f.true_poses)  # the look-around: same poses
+    assert (p.known != f.known).any()

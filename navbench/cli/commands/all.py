@@ -112,10 +112,13 @@ def register(app: typer.Typer) -> None:
         console.print(f"where the time went (run {result.run_id}; stored in the database's run_timings):",
                       highlight=False)
         console.print(escape(format_breakdown(result.breakdown)), highlight=False)
+        from navbench.config import to_jsonable
         from navbench.pipeline.score import conditions_label
+        from navbench.pipeline.stages.online import online_label
 
         nav = result.navigation
-        console.print(f"conditions: {escape(conditions_label(dict(result.profile.episode)))}", highlight=False)
+        label = conditions_label(dict(result.profile.episode)) + online_label(to_jsonable(result.profile))
+        console.print(f"conditions: {escape(label)}", highlight=False)
         console.print(f"profile [bold]{escape(result.profile.name)}[/bold]: {nav.stored} new episodes, "
                       f"{nav.already_done + nav.stored}/{nav.total} stored; "
                       f"report {escape(str(result.report_path))}; {time.perf_counter() - t0:.1f} s")

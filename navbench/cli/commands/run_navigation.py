@@ -25,8 +25,14 @@ def register(app: typer.Typer) -> None:
         address: str = typer.Option(None, "--address", help="Ray cluster address (with --executor ray) "
                                     f"{default('start a local Ray instance')}."),
         map_source: str = typer.Option(None, "--map", help="fit (the fitted world model), true "
-                                       "(the voxelized true geometry) or a map file (.npz; {level} "
-                                       f"stands for the level's name) {profile_default('map_source')}."),
+                                       "(the voxelized true geometry), a map file (.npz; {level} "
+                                       "stands for the level's name), online (no prior map: the "
+                                       "unknown-house loop maps as it goes, with --goal image; "
+                                       "perfect mapping at the true pose, estimator gt, nrns preset) "
+                                       "or online-fused (the same, its RGB-D frames fused into a "
+                                       "TSDF map; --estimators gt: at the true pose, ours: tracked "
+                                       "on the map it builds) "
+                                       f"{profile_default('map_source')}."),
         goal: str = typer.Option(None, "--goal", help="point (the task's coordinates) or image (the "
                                  "goal image, localised in the map the agent plans on) "
                                  f"{profile_default('goal')}."),
@@ -53,8 +59,13 @@ def register(app: typer.Typer) -> None:
         from navbench.sim.conditions import (CONDITIONS, conditions_to_episode, episode_conditions,
                                              parse_condition_args)
 
+        from navbench.pipeline.stages.online import ONLINE_ESTIMATOR, is_online
+
+        base = load_profile(profile)
+        if estimators is None and is_online(map_source or base.map_source):
+            estimators = ONLINE_ESTIMATOR  # the unknown-house loop's pose model: the true pose
         # an option given but empty (--estimators ',,') is an error, not the profile's list
-        prof = override(load_profile(profile), levels=levels or None,
+        prof = override(base, levels=levels or None,
                         estimators=None if estimators is None else parse_list(estimators),
                         noise=None if noise is None else parse_list(noise),
                         tasks=tasks, seeds=seeds, workers=workers, map_source=map_source, goal=goal)

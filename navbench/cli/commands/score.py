@@ -144,13 +144,17 @@ def _difficulty_table(by_diff, escape, preset: str):
     """Issue 15: success, SPL, SoftSPL and final distance by goal kind and NRNS difficulty."""
     from rich.table import Table
 
+    from navbench.pipeline.score import short_conditions
+
     out = Table(title=f"by NRNS difficulty (geodesic easy 1.5-3 m, medium 3-5 m, hard 5-10 m), preset "
                       f"{escape(preset)}: success [95% exact interval], means")
-    for col in ("level", "estimator", "noise", "goal", "difficulty", "n", "success", "SPL", "SoftSPL",
-                "final d m"):
+    # several conditions (simulator conditions, --map online's sensing model): a column of them
+    several = "conditions" in by_diff.columns and by_diff["conditions"].nunique() > 1
+    text = ("level", "estimator", "noise", *(("conditions",) if several else ()), "goal", "difficulty")
+    for col in (*text, "n", "success", "SPL", "SoftSPL", "final d m"):
         out.add_column(col, justify="right" if col in ("n", "success", "SPL", "SoftSPL", "final d m") else "left")
     for _, r in by_diff.iterrows():
-        out.add_row(*(escape(str(r[c])) for c in ("level", "estimator", "noise", "goal", "difficulty")),
+        out.add_row(*(escape(short_conditions(r[c]) if c == "conditions" else str(r[c])) for c in text),
                     str(r["episodes"]),
                     _fmt(r["success_rate"], r["success_rate_ci_low"], r["success_rate_ci_high"], 2),
                     f"{r['spl']:.2f}", "-" if r["soft_spl"] != r["soft_spl"] else f"{r['soft_spl']:.2f}",

@@ -35,6 +35,8 @@ class NavigationConfig:
     # navbench.pipeline.stages.goals); an ImageGoalConfig for "image" (None: its defaults)
     goal: str = "point"
     image_goal: object = None
+    # issue 15 §5: --map online, the unknown-house loop (stages.online.OnlineConfig; None: off)
+    online: object = None
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,8 @@ class ChunkSpec:
     slice_mode: str
     jobs: tuple[EpisodeJob, ...]
     goals_path: str = ""  # image goals: the image-goals artifact (the targets the agent found)
+    online: object = None  # --map online: the OnlineConfig (stages.online); goal_seed its goals'
+    goal_seed: int = 0
 
 
 def build_episode_config(overrides: dict):
@@ -130,8 +134,10 @@ def goal_key_part(cfg: NavigationConfig) -> dict:
 
 def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
     """All cells of the grid, in (level, noise, estimator) order."""
+    from navbench.pipeline.stages.online import online_key_part
+
     episode = resolved_episode_config(cfg)
-    goal = goal_key_part(cfg)
+    goal = {**goal_key_part(cfg), **online_key_part(cfg)}  # both {} for point goals on a given map
     cells = []
     for li in inputs:
         for noise in cfg.noise:
@@ -202,5 +208,6 @@ def chunk_jobs(inputs: list[LevelInputs], cfg: NavigationConfig, jobs: list[Epis
             specs.append(ChunkSpec(str(Path(li.level.path).resolve()), str(Path(li.map.path).resolve()),
                                    str(Path(li.tasks.path).resolve()), cfg.camera, cfg.slice_mode,
                                    tuple(js[i:i + chunk_size]),
-                                   str(Path(goals.path).resolve()) if goals is not None else ""))
+                                   str(Path(goals.path).resolve()) if goals is not None else "",
+                                   cfg.online, getattr(cfg.image_goal, "seed", 0)))
     return specs

@@ -33,12 +33,16 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
     training views by a stored collect-views artifact. ``profile.map_source``: ``fit`` (the
     fitted world model), ``true`` (the voxelized true geometry; no views are collected) or a
     map file path, where ``{level}`` stands for the level's name (:func:`map_file_stage`)."""
+    from navbench.pipeline.stages.online import is_online
+
     source = profile.map_source
-    if source not in ("fit", "true") and LEVEL_PLACEHOLDER not in source and len(set(profile.levels)) > 1:
+    one_file = source not in ("fit", "true") and not is_online(source) and LEVEL_PLACEHOLDER not in source
+    if one_file and len(set(profile.levels)) > 1:
         raise ConfigError(f"--map {source}: one map file for {len(set(profile.levels))} levels; "
                           f"put {LEVEL_PLACEHOLDER} in the path for one map per level")
     level = make_level_stage(ctx, LevelConfig(level_name, profile.level_seed))
-    if source == "true":
+    if source == "true" or is_online(source):  # online: the truth the unknown-house loop is
+        # scored against and its perfect sensor reads (stages.online)
         return LevelInputs(level, true_map_stage(ctx, level),
                            sample_tasks_stage(ctx, level, tasks_config(profile)))
     if source != "fit":

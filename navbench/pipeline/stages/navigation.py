@@ -44,6 +44,7 @@ class NavigationSummary:
 def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str, goals: dict | None = None) -> dict:
     from navbench.pipeline.db import episode_row_from_score
     from navbench.pipeline.stages.goals import goal_row_fields
+    from navbench.pipeline.stages.online import online_row_fields
 
     c = job.cell
     meta = {"level": c.level, "map_key": c.map_key, "task_set_key": c.tasks_key,
@@ -53,6 +54,7 @@ def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str, goals: dict | 
             "collided": record.collided, "condition_key": c.condition_key or None}
     if goals is not None:  # image goals: {level key: {task id: goal record}}
         meta.update(goal_row_fields(goals[c.level_key][job.task_id]))
+    meta.update(online_row_fields(record))  # --map online: the goal match the agent made
     return episode_row_from_score(c.key, meta, score, traj_key)
 
 
@@ -67,6 +69,15 @@ def _store_trajectory(ctx: StageContext, job: EpisodeJob, record: Any) -> str:
                     inputs={"level": c.level_key, "map": c.map_key, "tasks": c.tasks_key},
                     version=FORMAT["episode"])
     return key
+
+
+def _record_class(cfg: NavigationConfig):
+    """The class of the trajectory artifacts of ``cfg``'s episodes (``None``: EpisodeRecord)."""
+    if cfg.online is None:
+        return None
+    from navbench.nav.imagenav import OnlineEpisodeRecord
+
+    return OnlineEpisodeRecord
 
 
 def _triple(job: EpisodeJob) -> tuple[str, int, int]:
@@ -146,7 +157,7 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
         if p is None:
             rerun.append(j)
             continue
-        record = load_record(p / TRAJ_FILE)
+        record = load_record(p / TRAJ_FILE, _record_class(cfg))
         rows.append(_row(j, record, score_episode(record, geodesic=geodesic(j)), key, goals))
         ctx.used.append(("episode", key))
     if rows:
