@@ -51,9 +51,15 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
            "max(0, 1 - d_T / d_0) * d_0 / max(p, d_0) with the final geodesic distance d_T; final "
            "distance: the preset's d_T (mean, m). Difficulty: NRNS bands of the exact geodesic "
            "start-goal distance (easy 1.5-3 m, medium 3-5 m, hard 5-10 m; 'other' outside them).")
-    page.table(difficulty_table(episodes), "by_difficulty",
-               f"Success rate [95% exact interval], SPL, SoftSPL and final distance by goal and "
-               f"difficulty, scored under the '{name}' preset", digits=3)
+    table = difficulty_table(episodes)
+    caption = (f"Success rate [95% exact interval], SPL, SoftSPL and final distance by goal and "
+               f"difficulty, scored under the '{name}' preset")
+    shown = None
+    if "conditions" in table.columns and table["conditions"].nunique() == 1:
+        # one set of conditions: named once in the caption, not in a column as wide as the page
+        caption += f"; conditions: {table['conditions'].iloc[0]}"
+        shown = table.drop(columns=["conditions"])
+    page.table(table, "by_difficulty", caption, digits=3, display=shown)
     if "goal_status" not in episodes.columns or episodes["goal"].eq("image").sum() == 0:
         return
     img = episodes[episodes["goal"] == "image"]

@@ -80,6 +80,10 @@ def test_image_goal_episodes_end_to_end(image_run):
     html = result.report_path.read_text()
     assert "Scoring preset &#x27;nrns&#x27;" in html or "Scoring preset 'nrns'" in html
     assert "goal_localization.csv" in html and "tiny: goal images" in html and "unavailable" not in html
+    # one set of conditions: named in the caption, and the CSV keeps the column
+    goals_html = html.split('id="goals"')[1].split("<h2")[0]
+    assert "preset; conditions: " in goals_html and "<th>conditions</th>" not in goals_html
+    assert "conditions" in by_diff.columns
 
 
 def test_image_and_point_goal_cells_have_different_keys_and_point_keys_are_todays():
