@@ -62,6 +62,23 @@ def _outcome(row) -> str:
     return "failed: " + ("stopped too far" if reason == "reached" else reason)
 
 
+def first_episodes(rows, n: int = TOPVIEWS_PER_GROUP):
+    """The episodes of ``rows`` drawn: ordered by noise, estimator, seed and task, then taken one
+    difficulty after the other (easy, medium, hard, other: :data:`DIFFICULTY_ORDER`) so that a
+    capped figure shows every difficulty; the first ``n``."""
+    from navbench.pipeline.score_presets import DIFFICULTY_ORDER
+
+    order = [c for c in ("noise", "estimator", "seed", "task_id") if c in rows.columns]
+    rows = rows.sort_values(order, kind="stable")
+    if "difficulty" not in rows.columns:
+        return rows.head(n)
+    rank = rows.groupby(rows["difficulty"].astype(str), sort=False).cumcount()
+    band = rows["difficulty"].astype(str).map(
+        lambda d: DIFFICULTY_ORDER.index(d) if d in DIFFICULTY_ORDER else len(DIFFICULTY_ORDER))
+    return rows.assign(_rank=rank, _band=band).sort_values(["_rank", "_band"], kind="stable") \
+        .head(n).drop(columns=["_rank", "_band"])
+
+
 def section_online_topviews(page: Any, rows, levels_dir: Path | None, load_trajectory, load_map) -> None:
     """Top views of the online image-goal episodes ``rows`` (module docstring): one figure per
     level and conditions; notes instead where the level file or the trajectories are missing."""
@@ -75,7 +92,6 @@ def section_online_topviews(page: Any, rows, levels_dir: Path | None, load_traje
         return
     rows = rows.assign(conditions=[short_conditions(c) for c in
                                    rows.get("conditions", ["unrecorded"] * len(rows))])
-    order = [c for c in ("noise", "estimator", "seed", "task_id") if c in rows.columns]
     for (name, conds), g in rows.groupby(["level", "conditions"], sort=True):
         path = Path(levels_dir) / f"{name}.json"
         try:
@@ -83,7 +99,7 @@ def section_online_topviews(page: Any, rows, levels_dir: Path | None, load_traje
         except (NavbenchError, OSError) as e:
             page.note(f"{name}: top views of the online episodes skipped ({e})")
             continue
-        first = g.sort_values(order, kind="stable").head(TOPVIEWS_PER_GROUP)
+        first = first_episodes(g)
         episodes, failed = [], 0
         for _, r in first.iterrows():
             try:
@@ -113,11 +129,12 @@ def section_online_topviews(page: Any, rows, levels_dir: Path | None, load_traje
         aspect = level.depth / max(level.width, 1e-9)
         page.figure(lambda fig, lv=level, eps=episodes, grid=grid, sev=several:
                     draw_online_topviews(fig, lv, eps, grid, sev),
-                    f"{name}: top views of the first {len(episodes)} of {len(g)} online image-goal "
-                    f"episodes (conditions: {conds}); shaded blue: the cells the agent had seen when "
-                    "it ended; line: its true path (dashed: its estimate); dot: start; star: the "
-                    "true goal; square: where it stopped (black cross when it failed); below each: "
-                    "the goal image it was given" + grid_note,
+                    f"{name}: top views of {len(episodes)} of {len(g)} online image-goal episodes "
+                    f"(the first of each difficulty in turn; conditions: {conds}); shaded blue: the "
+                    "cells the agent had seen when it ended; line: its true path (green: success, "
+                    "orange: failed; dashed: its estimate); dot: start; star: the true goal; square: "
+                    "where it stopped (black cross when it failed); below each: the goal image it "
+                    "was given" + grid_note,
                     (3.4 * ncols, nrows * (3.4 * aspect + 1.9)))
 
 

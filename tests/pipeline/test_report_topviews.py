@@ -30,7 +30,7 @@ def test_online_report_has_top_views(online_run, tmp_path, monkeypatch):  # noqa
     captions = re.findall(r"<figcaption>([^<]*top views[^<]*)</figcaption>", goals)
     assert len(captions) == 1  # one level, one set of conditions
     cap = captions[0]
-    assert cap.startswith("tiny: top views of the first 2 of 2 online image-goal episodes")
+    assert cap.startswith("tiny: top views of 2 of 2 online image-goal episodes (the first of each difficulty")
     assert "conditions: map=online, mapping=perfect, pose=true" in cap
     assert "explored area not" not in cap and "not stored" not in cap  # the seen cells were drawn
     # the goal-image strip of the level and the new top views: two embedded images
@@ -102,3 +102,47 @@ def test_panel_outcome(success, reason, expected):
     from navbench.pipeline.report_topviews import _outcome
 
     assert _outcome(pd.Series({"success": success, "end_reason": reason})) == expected
+
+
+def test_first_episodes_take_each_difficulty_in_turn():
+    import pandas as pd
+
+    from navbench.pipeline.report_topviews import first_episodes
+
+    rows = pd.DataFrame({"task_id": range(9), "noise": "mid", "estimator": "gt", "seed": 0,
+                         "difficulty": ["easy"] * 3 + ["medium"] * 3 + ["hard"] * 3})
+    assert first_episodes(rows, 6)["task_id"].tolist() == [0, 3, 6, 1, 4, 7]
+    shuffled = rows.sample(frac=1.0, random_state=1)  # the order of the rows does not matter
+    assert first_episodes(shuffled, 4)["task_id"].tolist() == [0, 3, 6, 1]
+    assert first_episodes(rows.drop(columns=["difficulty"]), 2)["task_id"].tolist() == [0, 1]
+
+
+def test_draw_panels_with_estimates_and_missing_parts():
+    """Two estimators (titles name them), an estimate apart from the truth, an episode without
+    stored seen cells and one without a goal heading: every panel and goal image axis drawn."""
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from navbench.pipeline.report_topviews import draw_online_topviews
+    from tests.pipeline.test_stages import tiny_level
+
+    level = tiny_level()
+    true = np.array([[0.6, 0.6, 0.0], [1.0, 0.8, 0.1], [1.5, 1.0, 0.2]])
+    xs, ys = np.arange(0.05, 3.0, 0.1), np.arange(0.05, 2.4, 0.1)
+    known = np.zeros((len(xs), len(ys)), bool)
+    known[:10, :8] = True
+    eps = [(pd.Series({"task_id": 0, "difficulty": "easy", "estimator": "ours", "noise": "mid",
+                       "success": True, "end_reason": "reached", "goal_heading": 0.3,
+                       "goal_status": "online-matched"}),
+            {"true_poses": true, "est_poses": true + 0.05, "target": np.array([1.6, 1.0]),
+             "known": known, "seen_share": 0.4}),
+           (pd.Series({"task_id": 1, "estimator": "gt", "noise": "mid", "success": False,
+                       "end_reason": "step-limit", "goal_heading": float("nan")}),
+            {"true_poses": true, "est_poses": true, "target": np.array([2.5, 2.0])})]
+    fig = Figure()
+    draw_online_topviews(fig, level, eps, (xs, ys), several=True)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert len(fig.axes) == 4 and titles[0].startswith("task 0 (easy), ours, mid\nsuccess, 2 steps, seen 40 %")
+    assert titles[2] == "task 1, gt, mid\nfailed: step-limit, 2 steps"
+    assert len(fig.axes[0].images) == 1 and len(fig.axes[2].images) == 0  # seen cells: only where stored
+    assert len(fig.axes[1].images) == 1 and len(fig.axes[3].images) == 0  # no heading: no goal image
