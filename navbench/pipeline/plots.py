@@ -239,43 +239,46 @@ def draw_level_outline(ax, level: "Level") -> None:
 SLICE_COLOUR = (0.89, 0.12, 0.76, 0.5)
 
 
-def plot_planning_slice(ax, occ2d, xs, ys) -> None:
+def plot_planning_slice(ax, occ2d, xs, ys, colour=SLICE_COLOUR[:3], alpha: float = 0.3,
+                        zorder: float = 4.0) -> None:
     """The learned map's planning slice (``occ2d (nx, ny)`` bool over cell centres ``xs``,
     ``ys``, world metres): what the planner believes is occupied, as a translucent magenta fill
-    with its outline (:data:`SLICE_COLOUR`), over the true level."""
+    with its outline (:data:`SLICE_COLOUR`), over the true level. ``colour`` (RGB), the fill's
+    ``alpha`` and ``zorder`` let other cell masks reuse it (the report's explored cells)."""
     occ = np.asarray(occ2d, bool)
     xs, ys = np.asarray(xs, float), np.asarray(ys, float)
     dx = (xs[-1] - xs[0]) / max(len(xs) - 1, 1)
     dy = (ys[-1] - ys[0]) / max(len(ys) - 1, 1)
     rgba = np.zeros(occ.T.shape + (4,))
-    rgba[occ.T] = SLICE_COLOUR[:3] + (0.3,)
-    ax.imshow(rgba, origin="lower", interpolation="nearest", zorder=4,
+    rgba[occ.T] = tuple(colour[:3]) + (alpha,)
+    ax.imshow(rgba, origin="lower", interpolation="nearest", zorder=zorder,
               extent=(xs[0] - dx / 2, xs[-1] + dx / 2, ys[0] - dy / 2, ys[-1] + dy / 2))
     if occ.any() and not occ.all() and min(occ.shape) > 1:
-        ax.contour(xs, ys, occ.T.astype(float), levels=[0.5], colors=[SLICE_COLOUR[:3]],
-                   linewidths=0.8, zorder=4.5)
+        ax.contour(xs, ys, occ.T.astype(float), levels=[0.5], colors=[tuple(colour[:3])],
+                   linewidths=0.8, zorder=zorder + 0.5)
 
 
 def plot_level_runs(ax, level: "Level", tasks: "pandas.DataFrame | None" = None,
                     trajectories: Sequence[Mapping[str, Any]] = (),
                     labels: Sequence[str] | None = None, colours: Sequence[str] | None = None,
                     plans: Sequence[Any] = (), planning_slice: tuple | None = None,
-                    legend: bool = True) -> None:
+                    legend: bool = True, free_space: bool = True) -> None:
     """Fig. 3: the level's top view, its tasks (start dots, target crosses) and trajectories
     (true path solid, estimated path dashed, in the same colour; target star; a black cross
     where a trajectory marked ``"failed": True`` ended).
 
     ``colours``: one per trajectory (default: tab10). ``plans``: planned paths ``(K, 2)`` drawn
     dotted black. ``planning_slice``: ``(occ2d, xs, ys)`` of the learned map, drawn over the
-    level (:func:`plot_planning_slice`). Uses :func:`navbench.levelview.draw_level` when
-    available, else :func:`draw_level_outline`.
+    level (:func:`plot_planning_slice`). ``free_space``: shade the free cells green (as
+    :func:`navbench.levelview.draw_level`). Uses that function when available, else
+    :func:`draw_level_outline`.
     """
     try:
         from navbench.levelview import draw_level
     except ImportError:  # pragma: no cover - levelview is part of the package
         draw_level_outline(ax, level)
     else:
-        draw_level(ax, level, colorbar=False)
+        draw_level(ax, level, colorbar=False, free_space=free_space)
     if planning_slice is not None:
         plot_planning_slice(ax, *planning_slice)
     for i, plan in enumerate(plans):

@@ -513,7 +513,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     section_failures(page, episodes)
     from navbench.pipeline.report_goals import section_goals  # issue 15
 
-    section_goals(page, episodes, Path(levels_dir), db.tasks_frame())
+    section_goals(page, episodes, Path(levels_dir), db.tasks_frame(), load_trajectory, load_map)
     _section_tracking(page, episodes, tracking, db.bench_frame(), runs)
     _section_levels(page, db, episodes, Path(levels_dir), load_trajectory, trajectories_per_level,
                     load_map)
@@ -557,10 +557,13 @@ def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryL
     def load_trajectory(key: str) -> dict:
         from navbench.pipeline.artifacts import TRAJ_FILE, load_record
 
-        rec = load_record(store.load("episode", key) / TRAJ_FILE)
+        from navbench.pipeline.report_topviews import online_extras
+
+        path = store.load("episode", key) / TRAJ_FILE
+        rec = load_record(path)
         return {"true_poses": np.asarray(rec.true_poses), "est_poses": np.asarray(rec.est_poses),
                 "target": np.asarray(rec.target), "plan": np.asarray(rec.plan),
-                "end_reason": rec.end_reason}
+                "end_reason": rec.end_reason, **online_extras(path)}  # online: known, seen_share
 
     def load_map(key: str):
         from navbench.errors import ArtifactError

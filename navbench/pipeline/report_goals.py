@@ -34,12 +34,16 @@ def _online_goals(page: Any, rows) -> None:
                index=True, digits=3)
 
 
-def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=None) -> None:
+def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=None,
+                  load_trajectory=None, load_map=None) -> None:
     """Scores by difficulty and goal (:func:`navbench.pipeline.score.difficulty_table`)
     and, where image goals were run, the goal-localisation outcomes per level and the first
     goal images of each level (rendered again from the level file in ``levels_dir``, the task's
     target in ``tasks`` (the database's tasks frame) and the stored heading: byte for byte the
-    image the agent was given, at the ``half`` camera)."""
+    image the agent was given, at the ``half`` camera). Online episodes (``--map online``) get
+    top views per level and conditions (:mod:`navbench.pipeline.report_topviews`: their
+    trajectories through ``load_trajectory``, the grid of their explored cells through
+    ``load_map``, as :func:`navbench.pipeline.report.build_report`'s)."""
     from navbench.pipeline.score import difficulty_table
 
     page.h2("Goals and difficulty (scoring preset)", "goals")
@@ -74,6 +78,9 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
                    "to the true one", index=True, digits=3)
     if online.any():
         _online_goals(page, img[online])
+        from navbench.pipeline.report_topviews import section_online_topviews
+
+        section_online_topviews(page, img[online], levels_dir, load_trajectory, load_map)
     if levels_dir is None or tasks is None or tasks.empty or "goal_heading" not in img.columns:
         return
     for level, g in img.dropna(subset=["goal_heading"]).groupby("level", sort=True):
