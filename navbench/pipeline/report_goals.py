@@ -83,7 +83,9 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
         section_online_topviews(page, img[online], levels_dir, load_trajectory, load_map)
     if levels_dir is None or tasks is None or tasks.empty or "goal_heading" not in img.columns:
         return
-    for level, g in img.dropna(subset=["goal_heading"]).groupby("level", sort=True):
+    # an online episode's goal image is drawn under its top view when there is one
+    strip = known if load_trajectory is not None else img
+    for level, g in strip.dropna(subset=["goal_heading"]).groupby("level", sort=True):
         path = Path(levels_dir) / f"{level}.json"
         if not path.is_file():
             continue

@@ -33,13 +33,17 @@ def test_online_report_has_top_views(online_run, tmp_path, monkeypatch):  # noqa
     assert cap.startswith("tiny: top views of 2 of 2 online image-goal episodes (the first of each difficulty")
     assert "conditions: map=online, mapping=perfect, pose=true" in cap
     assert "explored area not" not in cap and "not stored" not in cap  # the seen cells were drawn
-    # the goal-image strip of the level and the new top views: two embedded images
-    assert goals.count("<img ") == 2 and "unavailable" not in goals
+    # the top views, each with its goal image beneath: the level's goal-image strip is not
+    # drawn a second time for online episodes
+    assert goals.count("<img ") == 1 and "unavailable" not in goals
+    assert "goal images (task, localisation status" not in goals
     assert TOPVIEWS_PER_GROUP >= 2
     # without a trajectory loader: a note instead of the figure, the rest unchanged
     bare = _goals_html(build_report(db, tmp_path / "bare", levels_dir=root / "levels", n_boot=50,
                                     preset="nrns").read_text())
+    # (then the strip shows the online episodes' goal images)
     assert bare.count("<img ") == 1 and "top views skipped" in bare
+    assert "goal images (task, localisation status" in bare
 
 
 def test_stored_known_cells_reach_the_report(online_run):  # noqa: F811
