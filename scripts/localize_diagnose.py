@@ -53,13 +53,11 @@ def main() -> None:
     from navbench.cli.commands.localize_eval import _localizer_config
     from navbench.geometry import CAMERA_HEIGHT, camera_by_name, wrap_angle
     from navbench.level import distance_to_solids
-    from navbench.levelgen.changed import change_level
     from navbench.pipeline.profiles import load_profile
     from navbench.pipeline.run import stage_context
     from navbench.pipeline.stages import study_level, study_map
     from navbench.pipeline.stages.level import load_level_ref
-    from navbench.pipeline.stages.localize import (CHANGE_COUNT, OC_BANDS, LocalizeEvalConfig,
-                                                   draw_queries, load_localizer)
+    from navbench.pipeline.stages.localize import LocalizeEvalConfig, load_localizer, study_queries
 
     cfg = LocalizeEvalConfig(queries=args.queries, seed=args.seed, camera=args.camera,
                              changes=args.changes, localizer=_localizer_config(args.option),
@@ -71,12 +69,7 @@ def main() -> None:
     intr = camera_by_name(cfg.camera)
     loc, _ = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, level=level_ref)
     base = load_level_ref(level_ref)
-    if cfg.changes is None:
-        queries = draw_queries(base, cfg.queries, cfg.seed, cfg.clearance, intr, sampling=cfg.sampling)
-    else:
-        changed = change_level(base, f"{base.name}-changed", CHANGE_COUNT, cfg.seed)
-        queries = draw_queries(changed, cfg.queries, cfg.seed, cfg.clearance, intr, base,
-                               OC_BANDS[cfg.changes], cfg.sampling)
+    queries = study_queries(base, cfg, intr)  # exactly the stage's queries
 
     def near(pose, true):
         return (math.hypot(*(pose[:2] - true[:2])) <= 0.5

@@ -192,6 +192,19 @@ def draw_queries(level, count: int, seed: int, clearance: float, intrinsics, ori
                       f"image-difference band {band} after {count * MAX_DRAWS_PER_QUERY} draws")
 
 
+def study_queries(base, cfg: "LocalizeEvalConfig", intrinsics):
+    """The study's queries (:func:`draw_queries`): in ``base`` itself, or with ``cfg.changes``
+    in its seeded changed copy, kept in that difficulty's image-difference band."""
+    if cfg.changes is None:
+        return draw_queries(base, cfg.queries, cfg.seed, cfg.clearance, intrinsics,
+                            sampling=cfg.sampling)
+    from navbench.levelgen.changed import change_level
+
+    changed = change_level(base, f"{base.name}-changed", CHANGE_COUNT, cfg.seed)
+    return draw_queries(changed, cfg.queries, cfg.seed, cfg.clearance, intrinsics, base,
+                        OC_BANDS[cfg.changes], cfg.sampling)
+
+
 def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalConfig,
                         progress=None) -> Ref:
     """Run (or fetch) the study ``cfg`` on ``level`` with map ``vmap``; ``ref.meta``: the bank's
@@ -204,15 +217,7 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
     loc, bank = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, model, level)
 
     def compute(d: Path) -> None:
-        from navbench.levelgen.changed import change_level
-
-        base = load_level_ref(level)
-        if cfg.changes is None:
-            q = draw_queries(base, cfg.queries, cfg.seed, cfg.clearance, intr, sampling=cfg.sampling)
-        else:
-            changed = change_level(base, f"{base.name}-changed", CHANGE_COUNT, cfg.seed)
-            q = draw_queries(changed, cfg.queries, cfg.seed, cfg.clearance, intr, base,
-                             OC_BANDS[cfg.changes], cfg.sampling)
+        q = study_queries(load_level_ref(level), cfg, intr)
         true, est = np.zeros((cfg.queries, 3)), np.zeros((cfg.queries, 3))
         conf, ms, diff = np.zeros(cfg.queries), np.zeros(cfg.queries), np.zeros(cfg.queries)
         cpu = np.zeros(cfg.queries)
