@@ -72,10 +72,13 @@ def settings_of(args) -> list[tuple[str, dict]]:
     chosen: dict[str, str] = {}
     for item in args.condition:  # one setting per item: a name may come with several values
         (name, value), = parse_condition_args([item], "--condition").items()
+        if getattr(args, "only_all", False):  # --only-all: the baseline and all together, not one at a time
+            chosen[name] = value
+            continue
         if (f"{name}={value}", {**base, name: value}) not in out:
             out.append((f"{name}={value}", {**base, name: value}))
         chosen[name] = value
-    if args.all_on and len(args.condition) > 1:  # a name given twice: its last value
+    if (args.all_on or getattr(args, "only_all", False)) and len(args.condition) > 1:  # a name given twice: its last value
         out.append(("all", {**base, **chosen}))
     return out
 
@@ -91,15 +94,19 @@ def run_setting(prof, conditions: dict, db, args):
     res = run_profile(p, db=db, workers=args.workers, until="navigation",
                       command="scripts/ablation.py " + " ".join(sys.argv[1:]), ref_name="ablation")
     keys = {c.key for c in res.navigation.cells}
-    frame = select_episodes(db, level=list(p.levels))
-    return frame[frame["cell_key"].isin(keys)]
+    # the cells first, then score's once-per-(setup, task, seed) rule: filtering after it would
+    # drop the tasks another run's cells (a smaller task set of the same tasks) stored first
+    return select_episodes(db, level=list(p.levels), cell_keys=keys)
 
 
 def rows_of(label: str, frame, base_frame, estimators) -> list[dict]:
-    """Table rows of one setting: per noise, pooled over levels."""
+    """Table rows of one setting: per noise (low, mid, high), pooled over levels."""
+    from navbench.sim.dynamics import NOISE_LEVELS
+
     out = []
     idx = ["level", "task_id", "seed"]
-    for noise, g in frame.groupby("noise", sort=False):
+    order = {n: i for i, n in enumerate(NOISE_LEVELS)}
+    for noise, g in sorted(frame.groupby("noise", sort=False), key=lambda t: order.get(t[0], len(order))):
         row = {"setting": label, "noise": noise}
         by_est = {e: g[g["estimator"] == e].set_index(idx).sort_index() for e in estimators}
         for e, f in by_est.items():
@@ -145,7 +152,7 @@ def print_table(rows, estimators) -> None:
     for line in lines:
         print("  ".join(str(c).ljust(w) for c, w in zip(line, widths)))
     n = {e: rows[0][f"{e}_n"] for e in estimators} if rows else {}
-    print(f"episodes per cell (first row): {n}; SPL: mean with a level-stratified percentile bootstrap "
+    print(f"episodes per cell (first row): {n}; SPL: mean with a level-stratified BCa bootstrap "
           f"({N_BOOT}) 95 % interval; SR: success rate, Clopper-Pearson 95 %; differences paired on "
           "(level, task, seed)")
 
@@ -194,6 +201,8 @@ def main(argv=None) -> int:
                     help="a condition of the baseline itself (repeatable; default: every default)")
     ap.add_argument("--all-on", action="store_true", help="also run all --condition values together "
                     "(the last value of a name given twice)")
+    ap.add_argument("--only-all", action="store_true", help="run only the baseline and all --condition "
+                    "values together (implies --all-on; the one-at-a-time settings are left out)")
     ap.add_argument("--workers", type=int, default=0, help="worker processes (0 = CPU count)")
     ap.add_argument("--db", default="sqlite:///results/ablation.db", help="results database URL")
     ap.add_argument("--csv", help="also write the rows to this CSV file")

@@ -51,3 +51,11 @@ def test_settings_one_per_condition_value_then_all(ablation):
     base = argparse.Namespace(base=["collision_check=endpoint"], all_on=False, condition=[])
     assert ablation.settings_of(base) == [("base:collision_check=endpoint", {"collision_check": "endpoint"})]
     assert ablation.main(["--condition", "nosuch=1", "--levels", "house-1"]) == 2
+
+
+def test_only_all_runs_the_baseline_and_all_together(ablation):
+    args = argparse.Namespace(base=[], all_on=False, only_all=True, condition=[
+        "pose_quantisation=round", "direction_limit=true", "collision_check=endpoint"])
+    assert ablation.settings_of(args) == [
+        ("baseline", {}),
+        ("all", {"pose_quantisation": "round", "direction_limit": "true", "collision_check": "endpoint"})]
