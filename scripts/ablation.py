@@ -159,8 +159,12 @@ def print_table(rows, estimators) -> None:
 
 def per_level_rows(label: str, frame, estimators) -> list[dict]:
     """Per (noise, level): each estimator's SPL (for the difficulty comparison)."""
+    from navbench.sim.dynamics import NOISE_LEVELS
+
+    order = {n: i for i, n in enumerate(NOISE_LEVELS)}
     out = []
-    for (noise, level), g in frame.groupby(["noise", "level"], sort=True):
+    groups = frame.groupby(["noise", "level"], sort=True)
+    for (noise, level), g in sorted(groups, key=lambda t: (order.get(t[0][0], len(order)), t[0][1])):
         row = {"setting": label, "noise": noise, "level": level}
         for e in estimators:
             f = g[g["estimator"] == e]

@@ -60,6 +60,36 @@ def apply_preset(frame: "pandas.DataFrame", preset: str = DEFAULT_PRESET,
     return f
 
 
+#: The substring of the ``conditions`` label (:func:`navbench.pipeline.score.with_conditions`)
+#: that marks an unknown-house episode (``--map online|online-fused``).
+ONLINE_MARK = "map=online"
+
+
+def online_rows(frame: "pandas.DataFrame") -> int:
+    """Episodes of ``frame`` run by the unknown-house loop (their conditions label says
+    ``map=online...``); 0 for a frame without the label."""
+    if frame.empty or "conditions" not in frame.columns:
+        return 0
+    return int(frame["conditions"].astype(str).str.contains(ONLINE_MARK, regex=False).sum())
+
+
+def default_preset(frame: "pandas.DataFrame") -> tuple[str, str | None]:
+    """``(preset, warning)``: the preset ``score`` uses when none is given. ``paper``, except for a
+    selection of unknown-house episodes only: ``nrns`` (the loop's agent stops on its own, which
+    ``paper`` does not read; :data:`navbench.pipeline.stages.online.ONLINE_PRESET`). A selection
+    that mixes both is scored under ``paper`` with a warning naming the online episodes."""
+    from navbench.pipeline.stages.online import ONLINE_PRESET
+
+    n = online_rows(frame)
+    if n and n == len(frame):
+        return ONLINE_PRESET, None
+    if n:
+        return DEFAULT_PRESET, (f"{n} of the {len(frame)} episodes are unknown-house ones (--map online or "
+                                f"online-fused), scored here under {DEFAULT_PRESET!r}, which does not read "
+                                f"their stop decision; pass --preset {ONLINE_PRESET} for their own rule")
+    return DEFAULT_PRESET, None
+
+
 def missing_distances(frame: "pandas.DataFrame") -> int:
     """Episodes of ``frame`` without a stored final distance (stored before issue 15)."""
     if frame.empty or "final_dist_m" not in frame.columns:

@@ -263,3 +263,44 @@ def test_online_profile_estimators_by_mapping():
         online_profile(dataclasses.replace(p, map_source="online"))
     with pytest.raises(ConfigError, match="no-map"):
         online_profile(dataclasses.replace(p, estimators=("no-map",)))
+
+
+def test_score_defaults_to_nrns_for_unknown_house_rows_only(tmp_path):
+    """``score`` without ``--preset``: ``nrns`` for a selection of unknown-house episodes (the
+    agent's stop decision is what they measure), ``paper`` with a one-line warning naming them
+    when they are mixed with known-map rows; ``--preset`` given is always obeyed."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from navbench.cli.main import app
+    from navbench.pipeline.db import ResultsDB
+    from tests.pipeline.test_db import episode
+
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    db = ResultsDB(url)
+    try:
+        for cell, source, ok in (("known", "true", True), ("online", "online", False)):
+            run = db.start_run("p", "probe", {"episode": {}, "map_source": source}, cell)
+            db.add_episodes(run, [episode(cell, t, estimator="gt", success=ok, goal="image",
+                                          final_dist_m=0.1 if ok else 3.0, final_geo_m=0.1 if ok else 3.0,
+                                          condition_key=cell) for t in range(3)])
+            db.finish_run(run)
+    finally:
+        db.close()
+    runner = CliRunner()
+
+    def presets(*extra):
+        res = runner.invoke(app, ["score", "--db", url, "--boot", "20", "--format", "json", *extra])
+        assert res.exit_code == 0, res.output
+        return {d["preset"] for d in json.loads(res.stdout)["scores"]}, res.stderr
+
+    got, err = presets("--run", "2")  # the online run alone
+    assert got == {"nrns"} and "warning" not in err
+    got, err = presets("--run", "1")  # the known-map run alone
+    assert got == {"paper"} and "warning" not in err
+    got, err = presets()  # both: paper, and a warning that names the online episodes
+    assert got == {"paper"}
+    assert "3 of the 6 episodes are unknown-house ones" in " ".join(err.split()) and "--preset nrns" in err
+    got, err = presets("--preset", "habitat")
+    assert got == {"habitat"} and "unknown-house" not in err

@@ -33,9 +33,11 @@ def score(
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
-    preset: str = typer.Option("paper", "--preset", help="Scoring preset: paper (within 2 L, no stop), "
+    preset: str = typer.Option(None, "--preset", help="Scoring preset: paper (within 2 L, no stop), "
                                "nrns (stopped within 1 m, 500 steps) or habitat (stopped within 0.2 m "
-                               "geodesic, 500 steps)."),
+                               "geodesic, 500 steps). Default: paper; nrns when every selected episode "
+                               "is an unknown-house one (--map online|online-fused).",
+                               show_default=False),
     by_difficulty: bool = typer.Option(False, "--by-difficulty", help="Also print success, SPL, SoftSPL "
                                        "and final distance by NRNS difficulty and goal."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
@@ -60,13 +62,17 @@ def score(
     from navbench.nav.presets import get_preset
     from navbench.pipeline.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
                                          select_episodes, short_conditions, table_records)
-    from navbench.pipeline.score_presets import apply_preset, missing_distances
+    from navbench.pipeline.score_presets import apply_preset, default_preset, missing_distances
 
-    get_preset(preset, "--preset")  # before opening the database
+    if preset is not None:
+        get_preset(preset, "--preset")  # before opening the database
     with ResultsDB(db, create=False) as rdb:
+        frame = select_episodes(rdb, run=run, level=parse_list(level) or None)
+        preset, mixed = (preset, None) if preset is not None else default_preset(frame)
         table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed,
                                      preset=preset)
-        frame = select_episodes(rdb, run=run, level=parse_list(level) or None)
+    if mixed:
+        err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
     warning = mixed_setups_warning(table)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", markup=True)
