@@ -304,3 +304,29 @@ def test_score_defaults_to_nrns_for_unknown_house_rows_only(tmp_path):
     assert "3 of the 6 episodes are unknown-house ones" in " ".join(err.split()) and "--preset nrns" in err
     got, err = presets("--preset", "habitat")
     assert got == {"habitat"} and "unknown-house" not in err
+
+
+def test_report_defaults_to_nrns_for_unknown_house_rows_only(tmp_path):
+    """``report`` without ``--preset`` follows ``score``'s default (nrns for unknown-house rows)."""
+    from typer.testing import CliRunner
+
+    from navbench.cli.main import app
+    from navbench.pipeline.db import ResultsDB
+    from tests.pipeline.test_db import episode
+
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    db = ResultsDB(url)
+    try:
+        run = db.start_run("p", "probe", {"episode": {}, "map_source": "online"}, "online")
+        db.add_episodes(run, [episode("online", t, estimator="gt", success=False, goal="image",
+                                      final_dist_m=0.1, final_geo_m=0.1, condition_key="online")
+                              for t in range(3)])
+        db.finish_run(run)
+    finally:
+        db.close()
+    res = CliRunner().invoke(app, ["report", "--db", url, "--out", str(tmp_path / "rep"), "--boot", "20",
+                                   "--cache", str(tmp_path / "cache"), "--levels", str(tmp_path / "levels")])
+    assert res.exit_code == 0, res.output
+    scores = pd.read_csv(tmp_path / "rep" / "scores.csv")
+    # stored success False (the paper rule), stopped within 1 m: a success under nrns
+    assert set(scores["preset"]) == {"nrns"} and scores["success_rate"].eq(1.0).all()

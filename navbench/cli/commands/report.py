@@ -19,8 +19,9 @@ def report(
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     trajectories: int = typer.Option(3, "--trajectories", min=0, max=1000, help="Trajectories drawn per level."),
     run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), or 'all'."),
-    preset: str = typer.Option("paper", "--preset", help="Scoring preset: paper, nrns or habitat "
-                               "(navbench score --help)."),
+    preset: str = typer.Option(None, "--preset", help="Scoring preset: paper, nrns or habitat "
+                               "(navbench score --help). Default: paper; nrns when every selected "
+                               "episode is an unknown-house one.", show_default=False),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
@@ -34,11 +35,20 @@ def report(
 
     from navbench.nav.presets import get_preset
 
-    get_preset(preset, "--preset")
+    if preset is not None:
+        get_preset(preset, "--preset")
     # the report's files are written in place: only into a new, empty or earlier report folder
     check_report_dir(out, "--out", protected_paths(db, cache, levels))
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
+        if preset is None:  # score's default: nrns for unknown-house episodes alone, else paper
+            from navbench.cli._common import err_console
+            from navbench.pipeline.score import select_episodes
+            from navbench.pipeline.score_presets import default_preset
+
+            preset, mixed = default_preset(select_episodes(rdb, run=run))
+            if mixed:
+                err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
         index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
                              run=run, preset=preset)
