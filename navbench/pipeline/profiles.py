@@ -36,8 +36,6 @@ import contextlib
 import contextvars
 import dataclasses
 import functools
-import math
-import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,301 +44,29 @@ from typing import Any, Callable
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_NAMES
 from navbench.nav.presets import DIFFICULTY_BANDS, PRESETS, check_preset_steps
+from navbench.pipeline.checks import (  # noqa: F401 -- the limits are imported from here too
+    _SEED,
+    MAX_EPISODES,
+    MAX_FIT_STEPS,
+    MAX_SEEDS,
+    MAX_TASKS,
+    MAX_VIEWS,
+    MAX_WORKERS,
+    NOISE_NAMES,
+    _check_estimators,
+    _check_episode,
+    _check_fit,
+    _check_map_source,
+    _check_names,
+    _check_options,
+    _check_str,
+    _int,
+    _Invalid,
+    is_safe_name,
+)
 
 PROFILES_DIR = Path(__file__).resolve().parent.parent / "profiles"
 DEFAULT_PROFILE = "quick"
-NOISE_NAMES = ("none", "low", "mid", "high", "tracking")
-MAP_SOURCES = ("fit", "true", "online", "online-fused")
-
-# Limits (the paper: 5000 views, 10 000 fit steps, 200 tasks, 1 seed, 6 x 3 x 3 cells).
-MAX_VIEWS = 100_000          # views per collection
-MAX_FIT_STEPS = 1_000_000    # Adam steps of a map fit
-MAX_TASKS = 100_000          # tasks per level
-MAX_SEEDS = 10_000           # episode seeds per task
-MAX_WORKERS = 1024           # worker processes
-MAX_EPISODES = 10_000_000    # episodes in one grid
-MAX_SEED = 2**63 - 1         # any seed numpy accepts
-MAX_GRID_CELLS = 2**28       # cells of a fitted voxel grid (the paper's: 800 000)
-
-_SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-_SAFE_RULE = ("letters, digits, '_', '.', '-', starting with a letter or digit, at most 64 "
-              "characters, no '..'")
-
-
-def is_safe_name(name: Any) -> bool:
-    """Whether ``name`` matches ``^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$`` and holds no ``..``."""
-    return isinstance(name, str) and bool(_SAFE_NAME.fullmatch(name)) and ".." not in name
-
-
-def check_name(name: Any, what: str) -> str:
-    """``name`` if it is a safe name (it becomes part of file names: profile refs, levels/NAME.json);
-    else :class:`ConfigError` naming ``what``. Safe: letters, digits, ``_ . -``, starting with a
-    letter or digit, at most 64 characters, no ``..``."""
-    if not is_safe_name(name):
-        raise ConfigError(f"{what}: {name!r} is not a safe name ({_SAFE_RULE})")
-    return name
-
-
-# ------------------------------------------------------------------------ value checks
-
-class _Invalid(Exception):
-    """A value failed its check; the message says what was expected (no location)."""
-
-
-def _num(x: float) -> str:
-    return str(int(x)) if float(x).is_integer() else f"{x:g}"
-
-
-def _describe_range(lo, hi, open_lo: bool, open_hi: bool) -> str:
-    if lo is not None and hi is not None:
-        return f" in {'(' if open_lo else '['}{_num(lo)}, {_num(hi)}{')' if open_hi else ']'}"
-    if lo is not None:
-        return f" {'>' if open_lo else '>='} {_num(lo)}"
-    if hi is not None:
-        return f" {'<' if open_hi else '<='} {_num(hi)}"
-    return ""
-
-
-@dataclass(frozen=True)
-class Num:
-    """A number's type and range: ``kind`` "int" or "float" (a float field accepts integers)."""
-
-    kind: str = "float"
-    lo: float | None = None
-    hi: float | None = None
-    open_lo: bool = False
-    open_hi: bool = False
-
-    def check(self, v: Any) -> None:
-        what = ("an integer" if self.kind == "int" else "a number") + \
-            _describe_range(self.lo, self.hi, self.open_lo, self.open_hi)
-        ok_type = isinstance(v, int) if self.kind == "int" else isinstance(v, (int, float))
-        if isinstance(v, bool) or not ok_type or (isinstance(v, float) and not math.isfinite(v)):
-            raise _Invalid(f"expected {what}, got {v!r}")
-        if ((self.lo is not None and (v <= self.lo if self.open_lo else v < self.lo))
-                or (self.hi is not None and (v >= self.hi if self.open_hi else v > self.hi))):
-            raise _Invalid(f"expected {what}, got {v!r}")
-
-
-def _int(lo=0, hi=None) -> Num:
-    return Num("int", lo, hi)
-
-
-def _pos(kind="float") -> Num:
-    return Num(kind, 0, None, open_lo=True)
-
-
-_SEED = _int(0, MAX_SEED)
-
-
-def _check_map_source(v: Any) -> None:
-    """fit, true, or a map file path (``.npz``; ``{level}`` stands for the level's name)."""
-    _check_str(v)
-    if v not in MAP_SOURCES and not v.endswith(".npz"):
-        raise _Invalid(f"unknown value {v!r}; choose one of {list(MAP_SOURCES)} or give a map file "
-                       "path ending in .npz ({level} stands for the level's name)")
-
-
-def _check_str(v: Any, choices: tuple[str, ...] | None = None) -> None:
-    if not isinstance(v, str):
-        raise _Invalid(f"expected a string, got {v!r}")
-    if choices is not None and v not in choices:
-        raise _Invalid(f"unknown value {v!r}; choose one of {list(choices)}")
-
-
-def _check_names(v: Any, kind: str, known: Callable[[], list[str]] | None) -> None:
-    """A non-empty list of distinct names; each safe, and one of ``known()`` when given."""
-    if not isinstance(v, (list, tuple)) or not all(isinstance(x, str) for x in v):
-        raise _Invalid(f"expected a list of {kind} names, got {v!r}")
-    if not v:
-        raise _Invalid(f"expected at least one {kind} name, got an empty list")
-    names = known() if known is not None else None
-    seen = set()
-    for x in v:
-        if names is not None and x not in names:
-            raise _Invalid(f"unknown {kind} {x!r} (known: {', '.join(names)})")
-        if not is_safe_name(x):
-            raise _Invalid(f"{x!r} is not a safe {kind} name ({_SAFE_RULE})")
-        if x in seen:
-            raise _Invalid(f"{kind} {x!r} is listed twice")
-        seen.add(x)
-
-
-def _known_estimators() -> list[str]:
-    from navbench.track.registry import known_estimators
-
-    return known_estimators()
-
-
-def _check_estimators(v: Any) -> None:
-    """Estimator names (built-in or plugin, see :mod:`navbench.track.registry`), each class
-    loaded now: a broken plugin fails here, before any stage runs, not in a worker."""
-    _check_names(v, "estimator", _known_estimators)
-    from navbench.errors import PluginError
-    from navbench.track.registry import estimator_class
-
-    for name in v:
-        try:
-            estimator_class(name)
-        except PluginError as e:
-            raise _Invalid(str(e)) from None
-
-
-# ------------------------------------------------------ dataclass-valued tables (fit, episode, options)
-
-#: Ranges of FitConfig fields (navbench.worldmodel.fit). ``steps`` and ``seed`` are the profile's
-#: own ``[fit] steps`` / ``[fit] seed``. Fields not listed: numbers >= 0, strings as FitConfig checks.
-FIT_RANGES: dict[str, Any] = {
-    "lr": _pos(), "sigma2_init": _pos(), "sigma2_lr": Num(lo=0), "min_sigma2": _pos(),
-    "images_per_batch": _int(1, 100_000), "pixels_per_image": _int(1, 1_000_000),
-    "grid_shape": _int(1, 65_536), "margin_z": Num(lo=0), "max_range": _pos(),
-    "n_samples": _int(1, 100_000), "tau": Num(lo=0, hi=1, open_lo=True, open_hi=True),
-    "init_free": Num(lo=0, hi=1), "init_solid": Num(lo=0, hi=1), "init_colour": Num(lo=0, hi=1),
-    "free_space_weight": Num(lo=0), "free_space_samples": _int(0, 1000),
-    "free_space_margin": Num(lo=0), "free_space_delta": Num(lo=0),
-    "threads": _int(1, MAX_WORKERS), "init": ("box", "empty"), "optimizer": ("adam", "lazy-adam"),
-}
-#: Ranges of EpisodeConfig fields (navbench.nav.episode) and of its planner/controller tables.
-EPISODE_RANGES: dict[str, Any] = {
-    "max_steps": _int(1, 1_000_000), "goal_tolerance": _pos(), "max_replans": _int(0, 1_000_000),
-    "planner.step": _pos(), "planner.goal_tolerance": _pos(), "planner.edge_samples": _int(1, 100_000),
-    "planner.max_expansions": _int(1, 100_000_000),
-    "controller.heading_threshold": _pos(), "controller.waypoint_tolerance": _pos(),
-    "controller.lookahead": _int(1, 100_000), "controller.max_turn": _pos(), "controller.max_step": _pos(),
-    "pose_quantisation": ("off", "round", "truncate"), "collision_check": ("swept", "endpoint"),
-}
-#: Ranges of estimator options (TrackerConfig of ours/no-map, EmissionConfig of emission).
-OPTION_RANGES: dict[str, Any] = {
-    "optimizer": ("adam", "gauss-newton"), "param": ("planar", "se3"),
-    "adam_steps": _int(1, 100_000), "adam_pixels": _int(1, 1_000_000), "gn_iters": _int(1, 100_000),
-    "gn_geo_iters": _int(0, 100_000), "gn_pixels": _int(1, 1_000_000),
-    "yaw_search_pixels": _int(0, 1_000_000), "prior_sigma": _pos(), "off_plane_sigma": _pos(),
-    "steps": _int(1, 100_000), "pixels": _int(1, 1_000_000), "threads": _int(1, MAX_WORKERS),
-    "sigma2": _pos(), "default_sigma2": _pos(), "step": _pos(), "max_range": _pos(),
-    "pixel_scale": _pos(),
-}
-
-
-def _check_typed(v: Any, tp: Any, rng: Any) -> None:
-    """Check ``v`` against the resolved annotation ``tp`` (int, float, str, bool, fixed-length
-    tuples, ``X | None``) and the range ``rng`` (a :class:`Num`, or a tuple of string choices)."""
-    import types
-    import typing
-
-    origin = typing.get_origin(tp)
-    if origin in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(tp) if a is not type(None)]
-        if v is None:
-            return
-        tp, origin = args[0], typing.get_origin(args[0])
-    if tp is bool:
-        if not isinstance(v, bool):
-            raise _Invalid(f"expected true or false, got {v!r}")
-    elif tp is str:
-        _check_str(v, rng if isinstance(rng, tuple) else None)
-    elif tp in (int, float):
-        (rng if isinstance(rng, Num) else Num(tp.__name__, lo=0)).check(v)
-    elif origin is tuple:
-        args = typing.get_args(tp)
-        n = len(args)
-        if not isinstance(v, (list, tuple)) or len(v) != n:
-            raise _Invalid(f"expected a list of {n} numbers, got {v!r}")
-        for i, (x, a) in enumerate(zip(v, args)):
-            try:
-                (rng if isinstance(rng, Num) else Num(a.__name__, lo=0)).check(x)
-            except _Invalid as e:
-                raise _Invalid(f"[{i}]: {e}") from None
-    else:
-        raise _Invalid(f"cannot be set from a profile (type {tp})")
-
-
-def _check_table(cls: type, values: Any, ranges: dict[str, Any], prefix: str = "") -> None:
-    """Check a TOML table against dataclass ``cls`` (nested ones: tables); errors name the dotted path."""
-    import typing
-
-    if not isinstance(values, dict):
-        raise _Invalid(f"{prefix.rstrip('.') or 'value'}: expected a table, got {values!r}")
-    hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
-    for k, v in values.items():
-        path = f"{prefix}{k}"
-        if k not in names:
-            raise _Invalid(f"{path}: unknown field; known: {names}")
-        tp = hints[k]
-        if dataclasses.is_dataclass(tp):
-            _check_table(tp, v, ranges, f"{path}.")
-            continue
-        try:
-            _check_typed(v, tp, ranges.get(path))
-        except _Invalid as e:
-            raise _Invalid(f"{path}: {e}") from None
-
-
-def _check_fit(fit: Any) -> None:
-    """``[fit]`` extras: FitConfig fields, types and ranges (numba only then), then FitConfig's checks."""
-    if not isinstance(fit, dict):
-        raise _Invalid(f"expected a table, got {fit!r}")
-    if not fit:
-        return
-    from navbench.worldmodel.fit import FitConfig
-
-    for own in ("steps", "seed"):
-        if own in fit:
-            raise _Invalid(f"{own}: set it as the profile's [fit] {own}")
-    _check_table(FitConfig, fit, FIT_RANGES)
-    if "grid_shape" in fit and math.prod(fit["grid_shape"]) > MAX_GRID_CELLS:
-        raise _Invalid(f"grid_shape: {math.prod(fit['grid_shape'])} cells; at most {MAX_GRID_CELLS}")
-    try:
-        FitConfig(**fit)
-    except ConfigError as e:
-        raise _Invalid(str(e).removeprefix("fit: ")) from None
-
-
-def _check_episode(episode: Any) -> None:
-    if not isinstance(episode, dict):
-        raise _Invalid(f"expected a table, got {episode!r}")
-    if not episode:
-        return
-    from navbench.nav.episode import EpisodeConfig
-
-    _check_table(EpisodeConfig, episode, EPISODE_RANGES)
-
-
-def _check_options(options: Any) -> None:
-    """``[navigation.options.<estimator>]``: known estimators, only the options their
-    constructors accept (with types and ranges); ``seed`` belongs to the pipeline."""
-    if not isinstance(options, dict):
-        raise _Invalid(f"expected a table of estimator tables, got {options!r}")
-    if not options:
-        return
-    from navbench.errors import NavbenchError
-    from navbench.track.registry import estimator_options_config
-
-    known = _known_estimators()
-    for est, opts in options.items():
-        section = f"[navigation.options.{est}]"
-        if est not in known:
-            raise _Invalid(f"{section}: unknown estimator {est!r} (known: {', '.join(known)})")
-        if not isinstance(opts, dict):
-            raise _Invalid(f"{section}: expected a table of options, got {opts!r}")
-        for reserved in ("seed", "vmap", "intrinsics", "camera_height", "renderer"):
-            if reserved in opts:
-                raise _Invalid(f"{section} {reserved}: set by the pipeline for every episode "
-                               "(the estimator seed derives from the task and episode seed); remove it")
-        cfg_cls = estimator_options_config(est)
-        if cfg_cls is None:
-            if opts:
-                raise _Invalid(f"{section}: the {est!r} estimator takes no options, got {sorted(opts)}")
-            continue
-        try:
-            _check_table(cfg_cls, opts, OPTION_RANGES)
-            from navbench.track.base import config_from_options
-
-            config_from_options(cfg_cls(), opts, est)
-        except _Invalid as e:
-            raise _Invalid(f"{section} {e}") from None
-        except (NavbenchError, ValueError, TypeError) as e:  # a plugin's options may raise these
-            raise _Invalid(f"{section}: {e}") from None
 
 
 # ------------------------------------------------------------------------ the profile

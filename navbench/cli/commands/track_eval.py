@@ -261,18 +261,11 @@ def _check_estimators(names: tuple[str, ...], options: dict[str, dict]) -> None:
                           f"(known: {', '.join(known_estimators())})")
     check_estimator_names(names, "--estimators")
     check_estimator_names(options, "--option")
-    from navbench.errors import NavbenchError
-    from navbench.track.base import config_from_options
-    from navbench.track.registry import estimator_options_config
+    from navbench.pipeline.checks import check_estimator_options
 
-    for name, opts in options.items():  # values checked now, not after views and a map fit
-        cfg_cls = estimator_options_config(name)
-        if cfg_cls is None:
-            raise ConfigError(f"--option {name}.*: the {name!r} estimator takes no options")
-        try:
-            config_from_options(cfg_cls(), opts, name)
-        except (NavbenchError, ValueError, TypeError) as e:
-            raise ConfigError(f"--option {name}: {e}") from None
+    # values checked now, not after views and a map fit: the checks of a profile's
+    # [navigation.options.<estimator>] (types, ranges, the estimator's own)
+    check_estimator_options(options, "--option")
 
 
 def _store(rdb, run_id: int, res: dict, study_key: str, map_key: str) -> dict:
