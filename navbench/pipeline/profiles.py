@@ -11,7 +11,7 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
     [fit]         steps, seed, and optionally any other FitConfig field
     [tasks]       count, seed, difficulty (NRNS names: count tasks of each; issue 15)
     [navigation]  estimators, noise, seeds, workers (0 = CPU count), map ("fit" or "true"),
-                  goal ("point" or "image"), and optional
+                  goal ("point" or "image"), online_ablation (with map "online*"), and optional
                   [navigation.episode] (EpisodeConfig fields) and
                   [navigation.options.<estimator>] (estimator keyword arguments)
     [conditions]  the paper's simulator conditions by name (navbench.sim.conditions), e.g.
@@ -99,6 +99,7 @@ class Profile:
     tasks_difficulty: tuple[str, ...] = ()  # NRNS difficulties, [tasks] count of each (issue 15)
     goal: str = "point"              # "point" (coordinates) or "image" (the goal image; issue 15)
     scoring_preset: str = "paper"    # navbench.nav.presets: paper, nrns, habitat
+    online_ablation: str = "full"    # --map online*: a Table-4 ablation (stages.online.ABLATIONS)
 
     def __post_init__(self):
         validate(self, _WHERE.get())
@@ -115,6 +116,12 @@ def _validating_as(where: str):
         yield
     finally:
         _WHERE.reset(token)
+
+
+def _online_ablations() -> tuple[str, ...]:
+    from navbench.pipeline.stages.online import ABLATIONS
+
+    return ABLATIONS
 
 
 #: Profile field -> (its place in the TOML file, its check). The check raises :class:`_Invalid`.
@@ -143,6 +150,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "tasks_difficulty": ("[tasks] difficulty", lambda v: v == () or _check_names(v, "difficulty", lambda: list(DIFFICULTY_BANDS))),
     "goal": ("[navigation] goal", lambda v: _check_str(v, ("point", "image"))),
     "scoring_preset": ("[scoring] preset", lambda v: _check_str(v, tuple(PRESETS))),
+    "online_ablation": ("[navigation] online_ablation", lambda v: _check_str(v, _online_ablations())),
 }
 
 #: Fields holding a table: their messages continue the section label with the table's own field.
@@ -151,7 +159,8 @@ _TABLE_FIELDS = ("fit", "episode", "estimator_options")
 #: The CLI option that overrides a profile field (named in messages about overridden values).
 OPTION_NAMES = {"levels": "LEVELS", "estimators": "--estimators", "noise": "--noise",
                 "tasks": "--tasks", "seeds": "--seeds", "workers": "--workers", "map_source": "--map",
-                "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera", "goal": "--goal", "scoring_preset": "--preset"}
+                "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera", "goal": "--goal", "scoring_preset": "--preset",
+                "online_ablation": "--online-ablation"}
 
 
 def check_field(fname: str, value: Any, where: str, label: str | None = None) -> None:
@@ -200,7 +209,7 @@ _SECTIONS: dict[str, dict[str, str]] = {
     "tasks": {"count": "tasks", "seed": "tasks_seed", "difficulty": "tasks_difficulty"},
     "navigation": {"estimators": "estimators", "noise": "noise", "seeds": "seeds",
                    "workers": "workers", "map": "map_source", "episode": "episode",
-                   "options": "estimator_options", "goal": "goal"},
+                   "options": "estimator_options", "goal": "goal", "online_ablation": "online_ablation"},
     "scoring": {"preset": "scoring_preset"},
     "conditions": {},  # navbench.sim.conditions: set into [navigation.episode] on loading
 }

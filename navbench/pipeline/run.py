@@ -145,7 +145,7 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
                            estimator_options=dict(profile.estimator_options), goal=profile.goal)
     from navbench.pipeline.stages.online import online_config
 
-    online = online_config(profile.map_source)
+    online = online_config(profile.map_source, profile.online_ablation)
     if online is not None:  # issue 15 §5: the unknown-house loop; no goal is localised beforehand
         from navbench.pipeline.stages.goals import ImageGoalConfig
 

@@ -67,7 +67,8 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
         if spec.online is not None:  # the unknown-house loop: no prior map, the true pose
             from navbench.pipeline.stages.online import loop_config, run_online_episode
 
-            record = run_online_episode(level, vmap, task, sim, intr, spec.online, loop_config(c.episode),
+            record = run_online_episode(level, vmap, task, sim, intr, spec.online,
+                                        loop_config(c.episode, spec.online.ablation),
                                         spec.goal_seed, c.noise, job.seed, c.estimator,
                                         job.estimator_seed, c.options)
         elif goals is None:

@@ -330,3 +330,54 @@ def test_report_defaults_to_nrns_for_unknown_house_rows_only(tmp_path):
     scores = pd.read_csv(tmp_path / "rep" / "scores.csv")
     # stored success False (the paper rule), stopped within 1 m: a success under nrns
     assert set(scores["preset"]) == {"nrns"} and scores["success_rate"].eq(1.0).all()
+
+
+def test_ablations_are_keyed_apart_and_the_full_model_keeps_its_keys():
+    """``--online-ablation`` (RNR-Map's Table 4 rows): each ablation is its own cell; the full
+    model's key part is the one runs stored before ablations existed (no ``ablation`` entry)."""
+    from navbench.errors import ConfigError
+    from navbench.pipeline.stages.context import Ref
+    from navbench.pipeline.stages.goals import ImageGoalConfig
+    from navbench.pipeline.stages.grid import NavigationConfig, make_cells
+    from navbench.pipeline.stages.inputs import LevelInputs
+    from navbench.pipeline.stages.online import ABLATIONS, OnlineConfig, loop_config, online_key_part
+
+    li = LevelInputs(Ref("make-level", "a" * 64, "l"), Ref("true-map", "b" * 64, "m"), Ref("sample-tasks", "c" * 64, "t"))
+
+    def cfg(ablation):
+        return NavigationConfig(estimators=("gt",), goal="image", image_goal=ImageGoalConfig(),
+                                online=OnlineConfig(ablation=ablation))
+
+    full = online_key_part(cfg("full"))["online"]
+    assert set(full) == {"mapping", "loop", "version"} and full["mapping"] == "perfect"
+    keys = {a: make_cells([li], cfg(a))[0].key for a in ABLATIONS}
+    assert len(set(keys.values())) == len(ABLATIONS)
+    assert online_key_part(cfg("no-goal"))["online"]["loop"]["goal_score"] is False
+    assert online_key_part(cfg("no-explore"))["online"]["loop"]["exploration_score"] is False
+    assert loop_config({}, "gt-stopper") == loop_config({})  # the same loop, stopped by the oracle
+    with pytest.raises(ConfigError, match="--online-ablation: unknown 'half'"):
+        OnlineConfig(ablation="half")
+
+
+def test_gt_stopper_through_the_pipeline(online_run, monkeypatch):
+    """The oracle stopper as a stored run: new cells beside the full model's, labelled with the
+    ablation, every episode that came within 1 m stopped there; an ablation without an online
+    map is refused by name."""
+    from navbench.errors import ConfigError
+    from navbench.pipeline.profiles import load_profile, override
+    from navbench.pipeline.run import run_profile
+
+    root, _ = online_run
+    monkeypatch.chdir(root)
+    db = f"sqlite:///{root / 'gt-stopper.db'}"
+    prof = override(load_profile("onl.toml"), online_ablation="gt-stopper")
+    res = run_profile(prof, db=db, until="score", workers=1)
+    assert res.navigation.stored == 2
+    assert set(res.scores["conditions"]) == {
+        "pose_quantisation=off, direction_limit=believed, collision_check=swept, "
+        "map=online, mapping=perfect, pose=true, ablation=gt-stopper"}
+    rows = _rows(root / "gt-stopper.db")
+    for r in rows.itertuples():
+        assert (r.end_reason == "reached") == (r.final_dist_m <= 1.0)
+    with pytest.raises(ConfigError, match="--online-ablation gt-stopper: .* --map online"):
+        run_profile(override(prof, map_source="true"), db=db, until="navigation", workers=1)

@@ -36,6 +36,11 @@ def register(app: typer.Typer) -> None:
         goal: str = typer.Option(None, "--goal", help="point (the task's coordinates) or image (the "
                                  "goal image, localised in the map the agent plans on) "
                                  f"{profile_default('goal')}."),
+        online_ablation: str = typer.Option(None, "--online-ablation", help="With --map online or "
+                                            "online-fused, RNR-Map's Table 4 rows: full, no-goal "
+                                            "(exploration without goal scoring), no-explore (goal scoring "
+                                            "without exploration) or gt-stopper (stopped by an oracle "
+                                            f"within 1 m of the goal) {profile_default('online_ablation')}."),
         chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
                                   f"{default('up to 8, a quarter of the work per worker')}."),
         condition: list[str] = typer.Option(None, "--condition", metavar="NAME=VALUE", help="A simulator "
@@ -68,7 +73,8 @@ def register(app: typer.Typer) -> None:
         prof = override(base, levels=levels or None,
                         estimators=None if estimators is None else parse_list(estimators),
                         noise=None if noise is None else parse_list(noise),
-                        tasks=tasks, seeds=seeds, workers=workers, map_source=map_source, goal=goal)
+                        tasks=tasks, seeds=seeds, workers=workers, map_source=map_source, goal=goal,
+                        online_ablation=online_ablation)
         if condition:
             chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
             prof = override(prof, episode={**prof.episode, **chosen})

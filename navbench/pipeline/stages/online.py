@@ -51,6 +51,13 @@ ONLINE_ESTIMATOR = "gt"
 ONLINE_PRESET = "nrns"
 #: Bumped when the loop gives other episodes for the same settings (part of the cell key).
 LOOP_VERSION = 1
+#: RNR-Map's Table 4 rows in navbench's terms (``--online-ablation``): the full model,
+#: exploration without goal scoring, goal scoring without exploration, and the full model
+#: stopped by an oracle once its true position is within the success radius of the goal.
+ABLATIONS = ("full", "no-goal", "no-explore", "gt-stopper")
+#: The :class:`~navbench.nav.imagenav.ImageNavConfig` fields each ablation sets.
+_ABLATION_LOOP = {"full": {}, "no-goal": {"goal_score": False}, "no-explore": {"exploration_score": False},
+                  "gt-stopper": {}}
 
 
 @dataclass(frozen=True)
@@ -60,10 +67,13 @@ class OnlineConfig:
     estimator. See the module docstring."""
 
     mapping: str = "perfect"
+    ablation: str = "full"  # ABLATIONS; "full" is left out of the key (keys of earlier runs hold)
 
     def __post_init__(self):
         if self.mapping not in MAPPINGS:
             raise ConfigError(f"online mapping: unknown {self.mapping!r}; choose one of {list(MAPPINGS)}")
+        if self.ablation not in ABLATIONS:
+            raise ConfigError(f"--online-ablation: unknown {self.ablation!r}; choose one of {list(ABLATIONS)}")
 
 
 def is_online(map_source: str) -> bool:
@@ -71,9 +81,10 @@ def is_online(map_source: str) -> bool:
     return map_source in ONLINE_MAPS
 
 
-def online_config(map_source: str) -> OnlineConfig | None:
-    """The :class:`OnlineConfig` of a ``--map`` value (``None``: not an online map)."""
-    return OnlineConfig(mapping=ONLINE_MAPS[map_source]) if is_online(map_source) else None
+def online_config(map_source: str, ablation: str = "full") -> OnlineConfig | None:
+    """The :class:`OnlineConfig` of a ``--map`` value and an ``--online-ablation`` (``None``: not
+    an online map)."""
+    return OnlineConfig(mapping=ONLINE_MAPS[map_source], ablation=ablation) if is_online(map_source) else None
 
 
 def online_profile(profile, log=None):
@@ -84,6 +95,9 @@ def online_profile(profile, log=None):
     import dataclasses
 
     if not is_online(profile.map_source):
+        if getattr(profile, "online_ablation", "full") != "full":
+            raise ConfigError(f"--online-ablation {profile.online_ablation}: an ablation of the unknown-house "
+                              f"loop; use it with --map online or online-fused (got --map {profile.map_source})")
         return profile
     m = profile.map_source
     if profile.goal != "image":
@@ -103,13 +117,15 @@ def online_profile(profile, log=None):
     return profile
 
 
-def loop_config(episode_overrides: dict):
+def loop_config(episode_overrides: dict, ablation: str = "full"):
     """The loop's :class:`~navbench.nav.imagenav.ImageNavConfig`: its defaults with the episode
-    config's ``max_steps`` (500 unless ``[navigation.episode] max_steps`` says otherwise)."""
+    config's ``max_steps`` (500 unless ``[navigation.episode] max_steps`` says otherwise) and the
+    fields the ``ablation`` (:data:`ABLATIONS`) switches off."""
     from navbench.nav.episode import EpisodeConfig
     from navbench.nav.imagenav import ImageNavConfig
 
-    return ImageNavConfig(max_steps=int(dict(episode_overrides).get("max_steps", EpisodeConfig().max_steps)))
+    return ImageNavConfig(max_steps=int(dict(episode_overrides).get("max_steps", EpisodeConfig().max_steps)),
+                          **_ABLATION_LOOP[ablation])
 
 
 def online_key_part(cfg) -> dict:
@@ -119,7 +135,10 @@ def online_key_part(cfg) -> dict:
 
     if getattr(cfg, "online", None) is None:
         return {}
-    part = {**to_jsonable(cfg.online), "loop": to_jsonable(loop_config(cfg.episode)), "version": LOOP_VERSION}
+    own = to_jsonable(cfg.online)
+    if own.get("ablation") == "full":  # the full model: the keys of the runs before ablations
+        own.pop("ablation")
+    part = {**own, "loop": to_jsonable(loop_config(cfg.episode, cfg.online.ablation)), "version": LOOP_VERSION}
     if cfg.online.mapping == "fused":  # the fusion's settings and version (its grids change with them)
         from navbench.worldmodel.fusion import FUSION_VERSION, FusionConfig
 
@@ -137,7 +156,9 @@ def online_label(run_config) -> str:
     if cfg is None:
         return ""
     pose = "true" if list(run_config.get("estimators") or ["gt"]) == ["gt"] else "estimator"
-    return f", map={run_config['map_source']}, mapping={cfg.mapping}, pose={pose}"
+    ablation = run_config.get("online_ablation") or "full"
+    return (f", map={run_config['map_source']}, mapping={cfg.mapping}, pose={pose}"
+            + ("" if ablation == "full" else f", ablation={ablation}"))
 
 
 def run_online_episode(level, full_map, task, simulator, intrinsics, cfg: OnlineConfig, loop,
@@ -165,8 +186,10 @@ def run_online_episode(level, full_map, task, simulator, intrinsics, cfg: Online
         tracker = online_estimator(estimator, FusedMap.empty(full_map.spec), intrinsics, simulator.camera_height,
                                    seed=estimator_seed, **(options or {}))
     goal = render_goal(level, task, intrinsics, goal_seed)
+    oracle = np.asarray(task.target, np.float64)[:2] if cfg.ablation == "gt-stopper" else None
     ep = run_unknown_image_episode(level, np.asarray(task.start, np.float64), goal, loop, intrinsics,
-                                   full_map, simulator=simulator, mapping=cfg.mapping, tracker=tracker)
+                                   full_map, oracle_target=oracle, simulator=simulator, mapping=cfg.mapping,
+                                   tracker=tracker)
     collided = ep.end_reason == "stuck"
     err = float("nan") if ep.goal_pose is None else float(math.dist(ep.goal_pose[:2], task.target[:2]))
     return OnlineEpisodeRecord(
