@@ -191,22 +191,30 @@ def test_online_profile_rules():
         OnlineConfig(mapping="noisy")
 
 
+def _known_and_online_db(path):
+    """A results database (open) with two runs of the same level, estimator (gt), noise, goal
+    (image) and 3 tasks: run 1 on a known map (stopped at the goal), run 2 online (3 m away)."""
+    from navbench.pipeline.db import ResultsDB
+    from tests.pipeline.test_db import episode
+
+    db = ResultsDB(f"sqlite:///{path}")
+    for cell, source, ok in (("known", "true", True), ("online", "online", False)):
+        run = db.start_run("p", "probe", {"episode": {}, "map_source": source}, cell)
+        db.add_episodes(run, [episode(cell, t, estimator="gt", success=ok, goal="image",
+                                      final_dist_m=0.1 if ok else 3.0, final_geo_m=0.1 if ok else 3.0,
+                                      condition_key=cell) for t in range(3)])
+        db.finish_run(run)
+    return db
+
+
 def test_online_rows_never_pool_with_known_map_rows(tmp_path):
     """Same level, estimator, noise, goal and tasks, one run on a known map and one online: the
     score table and the difficulty table keep them apart by their conditions label."""
-    from navbench.pipeline.db import ResultsDB
     from navbench.pipeline.score import difficulty_table, select_episodes, summarise
     from navbench.pipeline.score_presets import apply_preset
-    from tests.pipeline.test_db import episode
 
-    db = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    db = _known_and_online_db(tmp_path / "r.db")
     try:
-        for cell, source, ok in (("known", "true", True), ("online", "online", False)):
-            run = db.start_run("p", "probe", {"episode": {}, "map_source": source}, cell)
-            db.add_episodes(run, [episode(cell, t, estimator="gt", success=ok, goal="image",
-                                          final_dist_m=0.1 if ok else 3.0, final_geo_m=0.1 if ok else 3.0,
-                                          condition_key=cell) for t in range(3)])
-            db.finish_run(run)
         frame = apply_preset(select_episodes(db), "nrns")
     finally:
         db.close()
@@ -274,20 +282,9 @@ def test_score_defaults_to_nrns_for_unknown_house_rows_only(tmp_path):
     from typer.testing import CliRunner
 
     from navbench.cli.main import app
-    from navbench.pipeline.db import ResultsDB
-    from tests.pipeline.test_db import episode
 
     url = f"sqlite:///{tmp_path / 'r.db'}"
-    db = ResultsDB(url)
-    try:
-        for cell, source, ok in (("known", "true", True), ("online", "online", False)):
-            run = db.start_run("p", "probe", {"episode": {}, "map_source": source}, cell)
-            db.add_episodes(run, [episode(cell, t, estimator="gt", success=ok, goal="image",
-                                          final_dist_m=0.1 if ok else 3.0, final_geo_m=0.1 if ok else 3.0,
-                                          condition_key=cell) for t in range(3)])
-            db.finish_run(run)
-    finally:
-        db.close()
+    _known_and_online_db(tmp_path / "r.db").close()
     runner = CliRunner()
 
     def presets(*extra):
