@@ -4,6 +4,7 @@ stored by this (parent) process chunk by chunk."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -96,6 +97,56 @@ def _score_differs(stored: dict, score: Any) -> list[str]:
     return [f"{k} {stored[k]} -> {v}" for k, v in new.items() if not same(stored[k], v)]
 
 
+def _task_identity(start, target) -> tuple[float, ...]:
+    return (float(start[0]), float(start[1]), float(start[2]) if len(start) > 2 else 0.0,
+            float(target[0]), float(target[1]))
+
+
+def _options_text(options: dict) -> str:
+    return json.dumps(options or {}, sort_keys=True)
+
+
+def _same_task_trajectories(ctx: StageContext, inputs: list[LevelInputs],
+                            jobs: list[EpisodeJob]) -> dict[tuple[str, int, int], str]:
+    """For jobs not stored in their own cell: the trajectory key of a stored episode of the same
+    setup (condition, estimator and options), task id, task (start and target) and seed under
+    another task set, so a larger ``--tasks`` extends a cell without simulating its first tasks
+    again. Episodes are deterministic in exactly these (their seeds come from the level, task id
+    and seed: :func:`episode_seeds`), so the trajectory is the one this job would produce."""
+    if not jobs or ctx.db is None:
+        return {}
+    stored = ctx.db.setup_episodes([j.cell.condition_key for j in jobs])
+    if not stored:
+        return {}
+    from navbench.plan.tasks import load_tasks
+
+    mine = {li.tasks.key: {t.id: _task_identity(t.start, t.target) for t in load_tasks(li.tasks.path)}
+            for li in inputs}
+    theirs: dict[str, dict[int, tuple]] = {}
+    index: dict[tuple, str] = {}
+    for r in stored:
+        ts = r["task_set_key"]
+        if ts is None or ts in mine or not r["traj_key"]:
+            continue
+        if ts not in theirs:
+            f = ctx.db.tasks_frame(task_set_key=ts)
+            theirs[ts] = {int(t.task_id): _task_identity((t.start_x, t.start_y, t.start_theta),
+                                                         (t.target_x, t.target_y))
+                          for t in f.itertuples()}
+        task = theirs[ts].get(r["task_id"])
+        if task is not None:
+            index.setdefault((r["condition_key"], r["estimator"], _options_text(r["estimator_options"]),
+                              r["task_id"], r["seed"], task), r["traj_key"])
+    out = {}
+    for j in jobs:
+        c = j.cell
+        task = mine.get(c.tasks_key, {}).get(j.task_id)
+        key = index.get((c.condition_key, c.estimator, _options_text(c.options), j.task_id, j.seed, task))
+        if key is not None:
+            out[_triple(j)] = key
+    return out
+
+
 def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInputs],
                          cfg: NavigationConfig, executor=None, chunk_size: int | None = None,
                          on_progress: Callable[[int], None] | None = None,
@@ -149,11 +200,16 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
             geodesics[job.cell.level_key] = FinalGeodesic(load_level_ref(li.level))
         return geodesics[job.cell.level_key]
 
-    # trajectories stored by an interrupted run: score them, no simulation
+    # trajectories stored by an interrupted run, or by a run of a smaller (or other) task set
+    # holding the same task: score them, no simulation
+    same_task = _same_task_trajectories(ctx, inputs, todo)
     rerun, rows = [], []
     for j in todo:
         key = episode_key(j)
         p = ctx.store.lookup("episode", key, ctx.log)
+        if p is None and _triple(j) in same_task:
+            key = same_task[_triple(j)]
+            p = ctx.store.lookup("episode", key, ctx.log)
         if p is None:
             rerun.append(j)
             continue
