@@ -8,7 +8,8 @@ drawn from ``numpy.random.default_rng(seed * 100003 + k)``. ``--difficulty`` kee
 exact geodesic length (the task's ``optimal_length``) is in NRNS's band (easy 1.5-3 m, medium
 3-5 m, hard 5-10 m). ``--ablation``: ``full`` (exploration and goal scores), ``no-goal``
 (exploration without goal scoring), ``no-explore`` (goal scoring without exploration),
-``gt-stopper`` (the full model stopped by an oracle once within 1 m of the goal). Writes
+``gt-stopper`` (the full model stopped by an oracle once within 1 m of the goal), ``voronoi``
+(the full model exploring places on a Voronoi graph of the seen free space). Writes
 nothing; prints one line per episode and the totals. See :mod:`navbench.nav.imagenav`.
 """
 
@@ -23,13 +24,14 @@ import numpy as np
 from navbench.geometry import HALF_CAMERA
 from navbench.levelio import resolve_level
 from navbench.nav.imagenav import ImageNavConfig, run_unknown_image_episode, score_image_episode
+from navbench.plan.explore import ExplorerConfig
 from navbench.plan.tasks import find_task_file, load_tasks
 from navbench.sim.camera import RaycastCamera
 from navbench.worldmodel.grid import voxelize_level
 
 BANDS = {"easy": (1.5, 3.0), "medium": (3.0, 5.0), "hard": (5.0, 10.0), "any": (0.0, math.inf)}
 ABLATIONS = {"full": {}, "no-goal": {"goal_score": False}, "no-explore": {"exploration_score": False},
-             "gt-stopper": {}}
+             "gt-stopper": {}, "voronoi": {"explorer": ExplorerConfig(candidates="voronoi")}}
 
 
 def main() -> None:

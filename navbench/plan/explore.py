@@ -11,16 +11,26 @@ is that a target can only be a seen free cell with the planner's full clearance;
 therefore aims at a *viewpoint* of each frontier, not at the frontier itself (below), and an
 optimistic planner's shorter detours through unseen rooms are given up.
 
-Candidates (``candidates = "frontier"``)
+Candidates (``candidates = "frontier"``, the default)
     *Frontier cells* are seen free cells with an unseen 4-neighbour
     (:func:`frontier_cells`); 8-connected clusters of at least ``min_frontier_cells`` cells are
     the candidates. A cluster's *viewpoint* is the safe reachable cell (see
     :func:`reachable_distances`) closest to the cluster (ties: the shortest geodesic distance);
     a cluster with no safe reachable cell within ``view_distance`` is not a candidate (it lies
-    behind a gap the agent cannot pass). RNR-Map draws a Voronoi graph of the seen free space
-    instead (``skimage.morphology.skeletonize``, not a navbench dependency); frontiers need only
-    ``scipy.ndimage`` and give the same two ingredients: places at the edge of the seen space,
-    and a score of how much is unseen around them.
+    behind a gap the agent cannot pass). Frontiers give the same two ingredients as RNR-Map's
+    graph: places at the edge of the seen space, and a score of how much is unseen around them.
+
+Candidates (``candidates = "voronoi"``, RNR-Map's kind)
+    The *generalised Voronoi diagram* (GVD) of the seen free space, every cell that is not seen
+    free (occupied or unseen) counting as an obstacle: a seen free cell lies on it when its
+    nearest obstacle cell and a 4-neighbour's nearest obstacle cell are at least
+    :data:`VORONOI_SEPARATION` cells apart (the two sides of a passage, not one wall;
+    :func:`voronoi_cells`, from ``scipy.ndimage``'s exact distance transform). Its safe, reachable
+    cells with something unseen in reach (exploration score > 0) are scored as below; then, best
+    first, a cell closer than :data:`VORONOI_SPACING` m to a better one is dropped, so the
+    candidates are places along the graph's branches (RNR-Map scores the graph's nodes). The
+    viewpoint is the cell itself; ``"done"`` when no such cell is left that is not exhausted.
+    Unseen space counts as an obstacle, so the graph's branches run toward the unseen rooms.
 
 Scores (RNR-Map supplementary G, "Exploration Score")
     * exploration score: the share of unseen cells on ``rays`` rays of ``ray_length`` metres
@@ -61,12 +71,20 @@ from navbench.plan.astar import Plan, PlannerConfig, plan_path
 #: like the goal; RNR-Map's latent score is in [0, 1]).
 GoalScore = Callable[[np.ndarray], np.ndarray]
 
+#: The candidate kinds (module docstring).
+CANDIDATE_KINDS = ("frontier", "voronoi")
+#: Voronoi candidates: the least distance, in cells, between the nearest obstacle cells of two
+#: 4-neighbours for them to lie on the graph (1 to 1.5 along one straight or slanted wall).
+VORONOI_SEPARATION = 3.0
+#: Voronoi candidates: m; a graph cell this close to a better-scored one is not a candidate.
+VORONOI_SPACING = 0.5
+
 
 @dataclass(frozen=True)
 class ExplorerConfig:
     """Explorer settings; lengths in metres."""
 
-    candidates: str = "frontier"      # the only kind implemented (see the module docstring)
+    candidates: str = "frontier"      # "frontier" or "voronoi" (see the module docstring)
     min_frontier_cells: int = 3       # smaller frontier clusters are ignored (sensing speckle)
     view_distance: float = 1.0        # a viewpoint lies at most this far from its frontier cluster
     visited_radius: float = 0.3       # a viewpoint this close to a reached target is exhausted
@@ -78,8 +96,9 @@ class ExplorerConfig:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
 
     def __post_init__(self):
-        if self.candidates != "frontier":
-            raise PlanningError(f"explorer: candidates must be 'frontier', got {self.candidates!r}")
+        if self.candidates not in CANDIDATE_KINDS:
+            raise PlanningError(f"explorer: candidates must be one of {', '.join(CANDIDATE_KINDS)}, "
+                                f"got {self.candidates!r}")
         if min(self.view_distance, self.visited_radius, self.ray_length) <= 0 or self.rays < 1:
             raise PlanningError("explorer: view_distance, visited_radius, ray_length and rays must be positive")
         if min(self.explore_weight, self.near_weight, self.goal_weight) < 0:
@@ -88,8 +107,8 @@ class ExplorerConfig:
 
 @dataclass(frozen=True)
 class Candidate:
-    """One frontier cluster: its ``viewpoint (2,)`` (m, a safe reachable cell centre), ``cells``
-    (cluster size), ``distance`` (geodesic m from the agent), the scores and their weighted sum."""
+    """One frontier cluster or Voronoi place: its ``viewpoint (2,)`` (m, a safe reachable cell
+    centre), ``cells`` (cluster size; graph cells it stands for), ``distance`` (geodesic m from the agent), the scores and their weighted sum."""
 
     viewpoint: np.ndarray
     cells: int
@@ -135,6 +154,25 @@ def frontier_cells(known, occupied) -> np.ndarray:
     unknown = np.pad(~known, 1, constant_values=False)
     nb = unknown[:-2, 1:-1] | unknown[2:, 1:-1] | unknown[1:-1, :-2] | unknown[1:-1, 2:]
     return seen_free(known, occupied) & nb
+
+
+def voronoi_cells(free, separation: float = VORONOI_SEPARATION) -> np.ndarray:
+    """Cells of the generalised Voronoi diagram of ``free`` (bool grid): free cells whose nearest
+    non-free cell (cells off the grid count as non-free) lies at least ``separation`` cells from
+    the nearest non-free cell of the next free cell along +x or +y. A band between two walls gives
+    a line about one cell wide along its middle; a single straight wall gives none."""
+    free = np.asarray(free, bool)
+    pad = np.pad(free, 1, constant_values=False)
+    out = np.zeros(pad.shape, bool)
+    if not pad.any():
+        return out[1:-1, 1:-1]
+    _, (nx, ny) = ndimage.distance_transform_edt(pad, return_indices=True)
+    for dx, dy in ((1, 0), (0, 1)):
+        a = (slice(0, pad.shape[0] - dx), slice(0, pad.shape[1] - dy))
+        b = (slice(dx, None), slice(dy, None))
+        apart = np.hypot(nx[a] - nx[b], ny[a] - ny[b]) >= separation
+        out[a] |= pad[a] & pad[b] & apart
+    return out[1:-1, 1:-1]
 
 
 def safe_cells(known, occupied, cell: float, safety: float) -> np.ndarray:
@@ -206,7 +244,7 @@ def exploration_score(known, occupied, xs, ys, points, rays: int = 36, ray_lengt
 
 
 class Explorer:
-    """The frontier explorer (module docstring). Stateful only in the targets it was told it
+    """The explorer (module docstring: frontier or Voronoi candidates). Stateful only in the targets it was told it
     reached (:meth:`reached`); :meth:`decide` is otherwise a function of its arguments."""
 
     def __init__(self, config: ExplorerConfig = ExplorerConfig()):
@@ -229,8 +267,12 @@ class Explorer:
         safe = safe_cells(known, occupied, cell, cfg.planner.safety)
         geo = reachable_distances(safe, self._source(safe, xs, ys, robot_xy), cell)
         reach = np.isfinite(geo)
+        if not reach.any():
+            return []
+        if cfg.candidates == "voronoi":
+            return self._voronoi_candidates(known, occupied, xs, ys, geo, goal_score)
         labels, count = ndimage.label(frontier_cells(known, occupied), structure=np.ones((3, 3), bool))
-        if count == 0 or not reach.any():
+        if count == 0:
             return []
         sizes = np.bincount(labels.ravel(), minlength=count + 1)
         views, cells, dists = [], [], []
@@ -256,17 +298,55 @@ class Explorer:
             return []
         pts = np.array(views)
         expl = exploration_score(known, occupied, xs, ys, pts, cfg.rays, cfg.ray_length)
+        goal, score = self._scores(pts, expl, np.asarray(dists), goal_score)
+        out = [Candidate(pts[i], cells[i], dists[i], float(expl[i]), float(goal[i]), float(score[i]))
+               for i in range(len(pts))]
+        return sorted(out, key=lambda c: (-c.score, c.distance, c.viewpoint[0], c.viewpoint[1]))
+
+    def _scores(self, pts, expl, dists, goal_score) -> tuple[np.ndarray, np.ndarray]:
+        """The goal scores and the weighted sums of candidates at ``pts``."""
+        cfg = self.config
         goal = np.zeros(len(pts))
         if goal_score is not None:
             goal = np.asarray(goal_score(pts), np.float64).reshape(-1)
             if goal.shape != (len(pts),) or not np.all(np.isfinite(goal)):
                 raise PlanningError(f"explorer: the goal score must return {len(pts)} finite values")
-        near = 1.0 / (1.0 + np.asarray(dists))
+        near = 1.0 / (1.0 + dists)
         gw = cfg.goal_weight if goal_score is not None else 0.0
-        score = cfg.explore_weight * expl + cfg.near_weight * near + gw * goal
-        out = [Candidate(pts[i], cells[i], dists[i], float(expl[i]), float(goal[i]), float(score[i]))
-               for i in range(len(pts))]
-        return sorted(out, key=lambda c: (-c.score, c.distance, c.viewpoint[0], c.viewpoint[1]))
+        return goal, cfg.explore_weight * expl + cfg.near_weight * near + gw * goal
+
+    def _voronoi_candidates(self, known, occupied, xs, ys, geo, goal_score) -> list[Candidate]:
+        """Candidates on the seen free space's Voronoi graph (module docstring), best first."""
+        cfg = self.config
+        graph = voronoi_cells(seen_free(known, occupied)) & np.isfinite(geo)
+        ix, iy = np.nonzero(graph)
+        if len(ix) == 0:
+            return []
+        pts = np.stack([xs[ix], ys[iy]], axis=1)
+        expl = exploration_score(known, occupied, xs, ys, pts, cfg.rays, cfg.ray_length)
+        keep = expl > 0
+        if self.visited:  # not exhausted (as _exhausted, for many points at once)
+            v = np.asarray(self.visited)
+            d2 = ((pts[:, None, :] - v[None, :, :]) ** 2).sum(axis=2)
+            keep &= ~(d2 <= cfg.visited_radius ** 2).any(axis=1)
+        if not keep.any():
+            return []
+        pts, expl, dists = pts[keep], expl[keep], geo[ix[keep], iy[keep]]
+        goal, score = self._scores(pts, expl, dists, goal_score)
+        order = np.lexsort((pts[:, 1], pts[:, 0], dists, -score))  # best first, ties by distance, position
+        chosen: list[int] = []
+        cells: list[int] = []
+        taken = np.empty((0, 2))
+        for i in order:
+            d = np.hypot(taken[:, 0] - pts[i, 0], taken[:, 1] - pts[i, 1])
+            if len(d) and d.min() < VORONOI_SPACING:
+                cells[int(np.argmin(d))] += 1
+            else:
+                chosen.append(int(i))
+                cells.append(1)
+                taken = np.vstack([taken, pts[i]])
+        return [Candidate(pts[i].copy(), cells[k], float(dists[i]), float(expl[i]), float(goal[i]), float(score[i]))
+                for k, i in enumerate(chosen)]
 
     def decide(self, known, occupied, xs, ys, robot_xy, goal_score: GoalScore | None = None) -> Decision:
         """The best candidate the A* planner (``config.planner``, on ``~(known & ~occupied)``)

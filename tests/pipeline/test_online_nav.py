@@ -352,6 +352,13 @@ def test_ablations_are_keyed_apart_and_the_full_model_keeps_its_keys():
     assert online_key_part(cfg("no-goal"))["online"]["loop"]["goal_score"] is False
     assert online_key_part(cfg("no-explore"))["online"]["loop"]["exploration_score"] is False
     assert loop_config({}, "gt-stopper") == loop_config({})  # the same loop, stopped by the oracle
+    # the Voronoi variant: the full loop with the explorer's other candidate kind only
+    voronoi = online_key_part(cfg("voronoi"))["online"]["loop"]
+    assert voronoi["explorer"]["candidates"] == "voronoi"
+    assert {k: v for k, v in voronoi.items() if k != "explorer"} == \
+        {k: v for k, v in full["loop"].items() if k != "explorer"}
+    assert loop_config({}, "voronoi").explorer.candidates == "voronoi"
+    assert loop_config({}).explorer.candidates == "frontier"
     with pytest.raises(ConfigError, match="--online-ablation: unknown 'half'"):
         OnlineConfig(ablation="half")
 

@@ -12,7 +12,7 @@ import pytest
 from navbench.errors import PlanningError
 from navbench.level import Wall, occupancy_raster
 from navbench.plan.explore import (Explorer, ExplorerConfig, exploration_score, frontier_cells,
-                                   reachable_distances, safe_cells)
+                                   reachable_distances, safe_cells, voronoi_cells)
 from tests.plan.levels import box, make_level
 from tests.plan.sensing import reveal
 
@@ -81,6 +81,29 @@ def test_frontier_cells_by_hand():
     assert not frontier_cells(np.ones((4, 4), bool), np.zeros((4, 4), bool)).any()
 
 
+def test_voronoi_cells_by_hand():
+    # a corridor: free rows 1..7 between walls at rows 0 and 8 (the grid's x ends count as walls
+    # too): the graph is the middle row 4 away from the ends, one cell wide
+    free = np.zeros((20, 9), bool)
+    free[:, 1:8] = True
+    v = voronoi_cells(free)
+    mid = v[5:15]
+    assert mid[:, 4].all() and mid.sum() == 10
+    assert not (v & ~free).any()
+    # along one straight wall (row 0), away from the corners it makes with the grid's edges
+    # (their bisectors are graph branches), no graph cell within 3 cells of it
+    free = np.ones((30, 30), bool)
+    free[:, 0] = False
+    assert not voronoi_cells(free)[5:25, :4].any()
+    # an L-shaped room: the graph reaches into both arms
+    free = np.zeros((20, 20), bool)
+    free[1:6, 1:19] = True
+    free[1:19, 1:6] = True
+    v = voronoi_cells(free)
+    assert v[10:16, 3].all() and v[3, 10:16].all()
+    assert not voronoi_cells(np.zeros((4, 4), bool)).any()
+
+
 def test_safe_cells_use_unknown_as_obstacle():
     known = np.ones((9, 9), bool)
     known[0, :] = False  # unseen column
@@ -136,8 +159,8 @@ def test_goal_score_hook_picks_the_goal_side():
 
 
 def test_config_and_shape_errors():
-    with pytest.raises(PlanningError, match="frontier"):
-        ExplorerConfig(candidates="voronoi")
+    with pytest.raises(PlanningError, match="frontier, voronoi"):
+        ExplorerConfig(candidates="skeleton")
     with pytest.raises(PlanningError, match="weights"):
         ExplorerConfig(goal_weight=-1)
     with pytest.raises(PlanningError, match="known"):
@@ -170,3 +193,16 @@ def test_loop_is_deterministic(explored):
     again = run_exploration(explore_level(), (0.6, 0.6))
     np.testing.assert_array_equal(explored[4], again[4])
     np.testing.assert_array_equal(explored[0], again[0])
+
+
+def test_voronoi_loop_terminates_and_sees_every_reachable_cell(explored):
+    """RNR-Map's candidate kind on the same level: it too ends, having seen every reachable cell."""
+    known, occ, xs, ys, trail, decisions, done = run_exploration(
+        explore_level(), (0.6, 0.6), ExplorerConfig(candidates="voronoi"))
+    assert done, f"not done after {len(trail)} steps"
+    assert len(trail) < 1500 and decisions < 100
+    safe_true = safe_cells(np.ones_like(occ), occ, RES, ExplorerConfig().planner.safety)
+    reach = np.isfinite(reachable_distances(safe_true, (12, 12), RES))
+    missing = reach & ~known
+    assert not missing.any(), f"{missing.sum()} reachable cells never seen"
+    assert not np.array_equal(trail[:len(explored[4])], explored[4])  # not the frontier walk

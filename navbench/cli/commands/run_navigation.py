@@ -39,8 +39,10 @@ def register(app: typer.Typer) -> None:
         online_ablation: str = typer.Option(None, "--online-ablation", help="With --map online or "
                                             "online-fused, RNR-Map's Table 4 rows: full, no-goal "
                                             "(exploration without goal scoring), no-explore (goal scoring "
-                                            "without exploration) or gt-stopper (stopped by an oracle "
-                                            f"within 1 m of the goal) {profile_default('online_ablation')}."),
+                                            "without exploration), gt-stopper (stopped by an oracle "
+                                            "within 1 m of the goal), or the variant voronoi (the full "
+                                            "model exploring places on a Voronoi graph of the seen free "
+                                            f"space, not frontiers) {profile_default('online_ablation')}."),
         chunk: int = typer.Option(None, "--chunk", min=1, help="Episodes per worker task "
                                   f"{default('up to 8, a quarter of the work per worker')}."),
         condition: list[str] = typer.Option(None, "--condition", metavar="NAME=VALUE", help="A simulator "

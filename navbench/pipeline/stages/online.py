@@ -53,11 +53,15 @@ ONLINE_PRESET = "nrns"
 LOOP_VERSION = 1
 #: RNR-Map's Table 4 rows in navbench's terms (``--online-ablation``): the full model,
 #: exploration without goal scoring, goal scoring without exploration, and the full model
-#: stopped by an oracle once its true position is within the success radius of the goal.
-ABLATIONS = ("full", "no-goal", "no-explore", "gt-stopper")
+#: stopped by an oracle once its true position is within the success radius of the goal; and one
+#: variant: the full model with RNR-Map's exploration candidates (places on a Voronoi graph of the
+#: seen free space) instead of navbench's frontiers (:mod:`navbench.plan.explore`).
+ABLATIONS = ("full", "no-goal", "no-explore", "gt-stopper", "voronoi")
 #: The :class:`~navbench.nav.imagenav.ImageNavConfig` fields each ablation sets.
 _ABLATION_LOOP = {"full": {}, "no-goal": {"goal_score": False}, "no-explore": {"exploration_score": False},
-                  "gt-stopper": {}}
+                  "gt-stopper": {}, "voronoi": {}}
+#: The :class:`~navbench.plan.explore.ExplorerConfig` fields each ablation sets.
+_ABLATION_EXPLORER = {"voronoi": {"candidates": "voronoi"}}
 
 
 @dataclass(frozen=True)
@@ -124,8 +128,13 @@ def loop_config(episode_overrides: dict, ablation: str = "full"):
     from navbench.nav.episode import EpisodeConfig
     from navbench.nav.imagenav import ImageNavConfig
 
+    fields = dict(_ABLATION_LOOP[ablation])
+    if ablation in _ABLATION_EXPLORER:
+        from navbench.plan.explore import ExplorerConfig
+
+        fields["explorer"] = ExplorerConfig(**_ABLATION_EXPLORER[ablation])
     return ImageNavConfig(max_steps=int(dict(episode_overrides).get("max_steps", EpisodeConfig().max_steps)),
-                          **_ABLATION_LOOP[ablation])
+                          **fields)
 
 
 def online_key_part(cfg) -> dict:
