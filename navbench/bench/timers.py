@@ -371,10 +371,12 @@ class Throughput(NamedTuple):
 
 
 def time_navigation(level_file: Path, vmap, tasks: list, estimators: tuple[str, ...], workers: int,
-                    camera: str = "half", noise: str = "mid", seed: int = 0) -> Throughput:
+                    camera: str = "half", noise: str = "mid", seed: int = 0,
+                    estimator_options: dict | None = None) -> Throughput:
     """Episodes per wall-clock time through the pipeline's run-navigation stage
     (:func:`navbench.pipeline.stages.run_navigation_stage`) with a local process pool, in a
-    throw-away cache and SQLite database: ``tasks`` x ``estimators`` episodes at ``noise``.
+    throw-away cache and SQLite database: ``tasks`` x ``estimators`` episodes at ``noise``
+    (``estimator_options``: estimator name -> its options, as a profile's).
     A warm-up pass (one 2-step episode per worker, same pool) runs first and is not timed."""
     import hashlib
 
@@ -406,7 +408,8 @@ def time_navigation(level_file: Path, vmap, tasks: list, estimators: tuple[str, 
         try:
             run_id = db.start_run(profile="bench", command="bench e2e", config={}, config_hash="")
             ctx = StageContext(store=ArtifactStore(d / "cache"), db=db)
-            cfg = NavigationConfig(estimators=tuple(estimators), noise=(noise,), seeds=1, camera=camera)
+            cfg = NavigationConfig(estimators=tuple(estimators), noise=(noise,), seeds=1, camera=camera,
+                                   estimator_options=dict(estimator_options or {}))
             warm_cfg = NavigationConfig(estimators=(estimators[0],), noise=(noise,), seeds=1, camera=camera,
                                         episode={"max_steps": 2})
             with make_executor("local", workers) as ex:
