@@ -133,6 +133,7 @@ class BenchConfig:
     e2e_tasks: int | None = None
     e2e_estimators: tuple[str, ...] | None = None
     cache_root: str = "results/cache"
+    map_path: str | None = None  # a voxel map file instead of the cache's newest fit (runs compare)
     root: str = "."  # project root: levels are read from ROOT/levels/NAME.json
     cuda: bool | None = None  # None: whenever torch sees a CUDA device
 

@@ -118,7 +118,7 @@ def run_bench(quick: bool = False, repeats: int | None = None, config: BenchConf
     level_file = Path(cfg.level) if Path(cfg.level).suffix == ".json" else level_path(cfg.level, cfg.root)
     level_file = level_file if level_file.is_file() else None
     say("map")
-    vmap, map_desc = bench_map(level, level_file, cfg.cache_root)
+    vmap, map_desc = bench_map(level, level_file, cfg.cache_root, cfg.map_path)
     use_cuda = torch.cuda.is_available() if cfg.cuda is None else (cfg.cuda and torch.cuda.is_available())
     ctx = BenchContext(cfg, level, level_file, vmap, map_desc, map_step(vmap, None),
                        frozenset(known_estimators()), use_cuda, say)

@@ -26,13 +26,25 @@ from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, Intrinsics
 
 # ---------------------------------------------------------------------------------- the map
 
-def bench_map(level, level_file: Path | None, cache_root: str | Path = "results/cache"):
-    """``(vmap, description)``: the newest verified fit-map artifact of ``level`` in the cache
-    (matched by the sha256 of ``level_file``), else :func:`voxelize_level` on the paper grid."""
+def bench_map(level, level_file: Path | None, cache_root: str | Path = "results/cache",
+              map_path: str | Path | None = None):
+    """``(vmap, description)``: the voxel map file ``map_path`` when given; else the newest
+    verified fit-map artifact of ``level`` in the cache (matched by the sha256 of
+    ``level_file``), else :func:`voxelize_level` on the paper grid."""
     import hashlib
 
     from navbench.worldmodel.grid import VoxelMap, grid_for_level, voxelize_level
 
+    if map_path is not None:
+        from navbench.errors import ConfigError
+        from navbench.worldmodel.base import load_world_model
+
+        vmap = load_world_model(map_path)  # a bad file: one ArtifactError line naming it
+        if not isinstance(vmap, VoxelMap):
+            raise ConfigError(f"bench --map {map_path}: the bench times navbench's voxel map; this file "
+                              f"holds a {type(vmap).__name__}")
+        digest = hashlib.sha256(Path(map_path).read_bytes()).hexdigest()
+        return vmap, f"map file {map_path} ({digest[:12]}, {_shape(vmap)})"
     root = Path(cache_root)
     spec = grid_for_level(level)
     if level_file is not None and root.is_dir():

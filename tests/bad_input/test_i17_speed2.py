@@ -38,3 +38,28 @@ def test_valid_reference_scale_loads(project):
 
     (project / "ok.toml").write_text(variant("navigation.options.ours", "reference_scale", "0.5"))
     assert load_profile("ok.toml").estimator_options == {"ours": {"reference_scale": 0.5}}
+
+
+@pytest.mark.parametrize("content", [None, b"not a zip"], ids=["missing", "junk"])
+def test_bench_map_file_is_checked_before_a_run_is_recorded(project, tmp_path, content):
+    """``bench --map FILE``: a missing or malformed map is one line naming the file, before the
+    bench records a run or times anything."""
+    if content is not None:
+        (project / "m.npz").write_bytes(content)
+    before = tree_snapshot(tmp_path)
+    res = nb("bench", "--quick", "--level", "tiny", "--map", "m.npz")
+    assert_clean_error(res, "m.npz")
+    assert tree_snapshot(tmp_path) == before
+
+
+def test_bench_map_file_is_the_map_timed(project):
+    """``bench_map`` with a file returns that map and names it (runs on one file compare)."""
+    from navbench.bench.timers import bench_map
+    from navbench.levelio import resolve_level
+    from navbench.worldmodel.grid import voxelize_level
+
+    vmap = voxelize_level(resolve_level("tiny"))
+    vmap.save(project / "tiny.npz")
+    got, desc = bench_map(None, None, "results/cache", project / "tiny.npz")
+    assert desc.startswith(f"map file {project / 'tiny.npz'} (") and "x" in desc
+    assert got.spec == vmap.spec and (got.occ == vmap.occ).all()

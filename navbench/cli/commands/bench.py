@@ -86,6 +86,9 @@ def bench(
     e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0, max=MAX_TASKS,
                                   help=f"Tasks of the end-to-end run, 0 skips it {default('2 with --quick, else 6')}."),
     cache: str = typer.Option("results/cache", "--cache", help="Stage cache to take a fitted map from."),
+    map_file: str = typer.Option(None, "--map", help="A voxel map file (.npz) to time instead of the "
+                                 "newest fitted map of the level in --cache: bench runs on the same "
+                                 "file compare, whatever was fitted since."),
     store: bool = typer.Option(True, "--store/--no-store", help="Store the results in the results database."),
     cuda: bool = typer.Option(None, "--cuda/--no-cuda",
                               help="Also time the GPU path (differentiable render, fit step) on "
@@ -108,8 +111,12 @@ def bench(
     from navbench.pipeline.run import open_db, recorded_run
 
     resolve_level(level)  # a bad level name fails here, before a run is recorded
+    if map_file is not None:  # and so does a bad map file
+        from navbench.bench.timers import bench_map
+
+        bench_map(None, None, cache, map_file)
     cfg = BenchConfig(level=level, quick=quick, repeats=repeats, seed=seed, workers=workers,
-                      e2e_tasks=e2e_tasks, cache_root=cache, cuda=cuda)
+                      e2e_tasks=e2e_tasks, cache_root=cache, cuda=cuda, map_path=map_file)
     run_id = None
     with ExitStack() as stack:
         if store:
