@@ -23,15 +23,13 @@ import numpy as np
 
 from navbench.geometry import HALF_CAMERA
 from navbench.levelio import resolve_level
-from navbench.nav.imagenav import ImageNavConfig, run_unknown_image_episode, score_image_episode
-from navbench.plan.explore import ExplorerConfig
+from navbench.nav.imagenav import run_unknown_image_episode, score_image_episode
+from navbench.pipeline.stages.online import ABLATIONS, loop_config
 from navbench.plan.tasks import find_task_file, load_tasks
 from navbench.sim.camera import RaycastCamera
 from navbench.worldmodel.grid import voxelize_level
 
 BANDS = {"easy": (1.5, 3.0), "medium": (3.0, 5.0), "hard": (5.0, 10.0), "any": (0.0, math.inf)}
-ABLATIONS = {"full": {}, "no-goal": {"goal_score": False}, "no-explore": {"exploration_score": False},
-             "gt-stopper": {}, "voronoi": {"explorer": ExplorerConfig(candidates="voronoi")}}
 
 
 def main() -> None:
@@ -39,7 +37,7 @@ def main() -> None:
     ap.add_argument("level")
     ap.add_argument("--tasks", type=int, default=5)
     ap.add_argument("--difficulty", choices=sorted(BANDS), default="any")
-    ap.add_argument("--ablation", choices=sorted(ABLATIONS), default="full")
+    ap.add_argument("--ablation", choices=ABLATIONS, default="full")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--max-steps", type=int, default=500)
     ap.add_argument("--log", action="store_true", help="print every goal match of every episode")
@@ -51,7 +49,7 @@ def main() -> None:
     if args.ids:
         ids = {int(v) for v in args.ids.split(",")}
         tasks = [t for t in load_tasks(find_task_file(level.name, 200)) if t.id in ids]
-    cfg = ImageNavConfig(max_steps=args.max_steps, **ABLATIONS[args.ablation])
+    cfg = loop_config({"max_steps": args.max_steps}, args.ablation)  # the pipeline's loop settings
     full = voxelize_level(level)
     cam = RaycastCamera(level, HALF_CAMERA)
     succ, spls = [], []

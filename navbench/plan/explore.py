@@ -255,8 +255,14 @@ class Explorer:
         """Record that the agent reached a target at ``xy`` (m): viewpoints near it are exhausted."""
         self.visited.append(np.asarray(xy, np.float64)[:2].copy())
 
-    def _exhausted(self, xy: np.ndarray) -> bool:
-        return any(math.dist(xy, v) <= self.config.visited_radius for v in self.visited)
+    def _exhausted(self, points: np.ndarray) -> np.ndarray:
+        """Which of ``points (C, 2)`` (m) lie within ``visited_radius`` of a reached target."""
+        points = np.asarray(points, np.float64).reshape(-1, 2)
+        if not self.visited:
+            return np.zeros(len(points), bool)
+        v = np.asarray(self.visited)
+        d = np.hypot(points[:, None, 0] - v[None, :, 0], points[:, None, 1] - v[None, :, 1])
+        return (d <= self.config.visited_radius).any(axis=1)
 
     def candidates(self, known, occupied, xs, ys, robot_xy, goal_score: GoalScore | None = None
                    ) -> list[Candidate]:
@@ -270,7 +276,7 @@ class Explorer:
         if not reach.any():
             return []
         if cfg.candidates == "voronoi":
-            return self._voronoi_candidates(known, occupied, xs, ys, geo, goal_score)
+            return self._voronoi_candidates(known, occupied, xs, ys, geo, reach, goal_score)
         labels, count = ndimage.label(frontier_cells(known, occupied), structure=np.ones((3, 3), bool))
         if count == 0:
             return []
@@ -289,7 +295,7 @@ class Explorer:
             k = tie[np.argmin(geo.ravel()[tie])]
             ix, iy = np.unravel_index(k, safe.shape)
             xy = np.array([xs[ix], ys[iy]])
-            if self._exhausted(xy):
+            if self._exhausted(xy)[0]:
                 continue
             views.append(xy)
             cells.append(int(sizes[lab]))
@@ -315,20 +321,16 @@ class Explorer:
         gw = cfg.goal_weight if goal_score is not None else 0.0
         return goal, cfg.explore_weight * expl + cfg.near_weight * near + gw * goal
 
-    def _voronoi_candidates(self, known, occupied, xs, ys, geo, goal_score) -> list[Candidate]:
+    def _voronoi_candidates(self, known, occupied, xs, ys, geo, reach, goal_score) -> list[Candidate]:
         """Candidates on the seen free space's Voronoi graph (module docstring), best first."""
         cfg = self.config
-        graph = voronoi_cells(seen_free(known, occupied)) & np.isfinite(geo)
+        graph = voronoi_cells(seen_free(known, occupied)) & reach
         ix, iy = np.nonzero(graph)
         if len(ix) == 0:
             return []
         pts = np.stack([xs[ix], ys[iy]], axis=1)
         expl = exploration_score(known, occupied, xs, ys, pts, cfg.rays, cfg.ray_length)
-        keep = expl > 0
-        if self.visited:  # not exhausted (as _exhausted, for many points at once)
-            v = np.asarray(self.visited)
-            d2 = ((pts[:, None, :] - v[None, :, :]) ** 2).sum(axis=2)
-            keep &= ~(d2 <= cfg.visited_radius ** 2).any(axis=1)
+        keep = (expl > 0) & ~self._exhausted(pts)
         if not keep.any():
             return []
         pts, expl, dists = pts[keep], expl[keep], geo[ix[keep], iy[keep]]

@@ -408,23 +408,6 @@ class ResultsDB:
                         "path_length": r.path_length, "steps": int(r.steps)}
         return out
 
-    def setup_episodes(self, condition_keys: list[str]) -> list[dict]:
-        """The stored episodes of these conditions, whatever their task set: ``condition_key``,
-        ``estimator``, ``estimator_options``, ``task_set_key``, ``task_id``, ``seed`` and
-        ``traj_key`` (to reuse a trajectory when a larger task set holds the same task)."""
-        keys = [k for k in dict.fromkeys(condition_keys) if k]
-        out: list[dict] = []
-        e = EpisodeRow
-        with self._begin() as conn:
-            for i in range(0, len(keys), 500):
-                stmt = select(e.condition_key, e.estimator, e.estimator_options, e.task_set_key,
-                              e.task_id, e.seed, e.traj_key).where(e.condition_key.in_(keys[i:i + 500]))
-                out.extend({"condition_key": r.condition_key, "estimator": r.estimator,
-                            "estimator_options": r.estimator_options or {},
-                            "task_set_key": r.task_set_key, "task_id": int(r.task_id),
-                            "seed": int(r.seed), "traj_key": r.traj_key} for r in conn.execute(stmt))
-        return out
-
     def add_episodes(self, run_id: int, rows: list[dict]) -> int:
         """Insert episode rows (see :func:`episode_row_from_score`), ignoring duplicates of
         (cell_key, task_id, seed); returns how many were new."""

@@ -4,7 +4,6 @@ stored by this (parent) process chunk by chunk."""
 from __future__ import annotations
 
 import dataclasses
-import json
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -97,53 +96,41 @@ def _score_differs(stored: dict, score: Any) -> list[str]:
     return [f"{k} {stored[k]} -> {v}" for k, v in new.items() if not same(stored[k], v)]
 
 
-def _task_identity(start, target) -> tuple[float, ...]:
-    return (float(start[0]), float(start[1]), float(start[2]) if len(start) > 2 else 0.0,
-            float(target[0]), float(target[1]))
-
-
-def _options_text(options: dict) -> str:
-    return json.dumps(options or {}, sort_keys=True)
-
-
-def _same_task_trajectories(ctx: StageContext, inputs: list[LevelInputs],
-                            jobs: list[EpisodeJob]) -> dict[tuple[str, int, int], str]:
-    """For jobs not stored in their own cell: the trajectory key of a stored episode of the same
-    setup (condition, estimator and options), task id, task (start and target) and seed under
-    another task set, so a larger ``--tasks`` extends a cell without simulating its first tasks
-    again. Episodes are deterministic in exactly these (their seeds come from the level, task id
-    and seed: :func:`episode_seeds`), so the trajectory is the one this job would produce."""
-    if not jobs or ctx.db is None:
+def _same_task_trajectories(ctx: StageContext, jobs: list[EpisodeJob]) -> dict[tuple[str, int, int], str]:
+    """For jobs not stored in their own cell: the trajectory key of a stored episode that is the
+    same experiment under another task set -- the identity :func:`navbench.pipeline.score.with_identities`
+    counts once (setup, task id with its start and target, seed) -- so a larger ``--tasks``
+    extends a cell without simulating its first tasks again. Episodes are deterministic in exactly
+    these (their seeds come from the level, task id and seed: :func:`episode_seeds`), so the
+    trajectory is the one this job would produce."""
+    keys = sorted({j.cell.condition_key for j in jobs if j.cell.condition_key})
+    if not keys or ctx.db is None:
         return {}
-    stored = ctx.db.setup_episodes([j.cell.condition_key for j in jobs])
-    if not stored:
+    stored = ctx.db.episodes_frame(condition_key=keys)
+    stored = stored[stored["traj_key"].notna()]
+    if stored.empty:
         return {}
-    from navbench.plan.tasks import load_tasks
+    import pandas as pd
 
-    mine = {li.tasks.key: {t.id: _task_identity(t.start, t.target) for t in load_tasks(li.tasks.path)}
-            for li in inputs}
-    theirs: dict[str, dict[int, tuple]] = {}
+    from navbench.pipeline.score import with_identities
+
+    mine = pd.DataFrame([{"cell_key": j.cell.key, "condition_key": j.cell.condition_key,
+                          "estimator": j.cell.estimator, "estimator_options": j.cell.options,
+                          "task_set_key": j.cell.tasks_key, "task_id": j.task_id, "seed": j.seed,
+                          "level": j.cell.level, "map_key": j.cell.map_key, "noise": j.cell.noise}
+                         for j in jobs if j.cell.condition_key])
+    sets = sorted(set(stored["task_set_key"].dropna()) | set(mine["task_set_key"]))
+    tasks = pd.concat([ctx.db.tasks_frame(task_set_key=k) for k in sets], ignore_index=True)
+    stored, mine = with_identities(stored, tasks), with_identities(mine, tasks)
     index: dict[tuple, str] = {}
-    for r in stored:
-        ts = r["task_set_key"]
-        if ts is None or ts in mine or not r["traj_key"]:
-            continue
-        if ts not in theirs:
-            f = ctx.db.tasks_frame(task_set_key=ts)
-            theirs[ts] = {int(t.task_id): _task_identity((t.start_x, t.start_y, t.start_theta),
-                                                         (t.target_x, t.target_y))
-                          for t in f.itertuples()}
-        task = theirs[ts].get(r["task_id"])
-        if task is not None:
-            index.setdefault((r["condition_key"], r["estimator"], _options_text(r["estimator_options"]),
-                              r["task_id"], r["seed"], task), r["traj_key"])
+    for setup, uid, seed, traj in zip(stored["setup"], stored["task_uid"], stored["seed"], stored["traj_key"]):
+        index.setdefault((setup, uid, int(seed)), traj)
     out = {}
-    for j in jobs:
-        c = j.cell
-        task = mine.get(c.tasks_key, {}).get(j.task_id)
-        key = index.get((c.condition_key, c.estimator, _options_text(c.options), j.task_id, j.seed, task))
+    for cell, tid, seed, setup, uid in zip(mine["cell_key"], mine["task_id"], mine["seed"], mine["setup"],
+                                           mine["task_uid"]):
+        key = index.get((setup, uid, int(seed)))
         if key is not None:
-            out[_triple(j)] = key
+            out[(cell, int(tid), int(seed))] = key
     return out
 
 
@@ -202,7 +189,7 @@ def run_navigation_stage(ctx: StageContext, run_id: int, inputs: list[LevelInput
 
     # trajectories stored by an interrupted run, or by a run of a smaller (or other) task set
     # holding the same task: score them, no simulation
-    same_task = _same_task_trajectories(ctx, inputs, todo)
+    same_task = _same_task_trajectories(ctx, todo)
     rerun, rows = [], []
     for j in todo:
         key = episode_key(j)
