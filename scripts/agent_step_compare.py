@@ -20,6 +20,10 @@ import os
 import statistics
 import subprocess
 import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from scripts._env import pythonpath_first  # noqa: E402
 
 CHILD = r"""
 import hashlib, json, sys, time
@@ -59,7 +63,7 @@ print(json.dumps({"sums_ms": sums, "steps": steps, "wall_s": wall, "cpu_s": cpu,
 
 
 def run(root: str, camera: str, tasks: int, ests: str) -> dict:
-    env = {**os.environ, "PYTHONPATH": root, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+    env = {**os.environ, "PYTHONPATH": pythonpath_first(root), "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "NUMBA_CACHE_DIR": os.path.join(root, ".numba_cache")}
     res = subprocess.run([sys.executable, "-c", CHILD, camera, str(tasks), ests], cwd=root, env=env,
                          capture_output=True, text=True)

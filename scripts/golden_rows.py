@@ -23,6 +23,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from scripts._env import pythonpath_first  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 
 PROFILE = """
@@ -66,7 +69,7 @@ def grid_rows(code_root: Path = ROOT) -> list[dict]:
         (proj / "levels").mkdir()
         save_level(tiny_level(), proj / "levels" / "tiny.json")
         (proj / "golden.toml").write_text(PROFILE)
-        env = {**os.environ, "PYTHONPATH": str(code_root), "NAVBENCH_DB": f"sqlite:///{proj / 'g.db'}"}
+        env = {**os.environ, "PYTHONPATH": pythonpath_first(code_root), "NAVBENCH_DB": f"sqlite:///{proj / 'g.db'}"}
         subprocess.run([sys.executable, "-m", "navbench.cli.main", "run-navigation", "--profile", "golden.toml"],
                        cwd=proj, env=env, check=True, capture_output=True, text=True)
         con = sqlite3.connect(proj / "g.db")

@@ -38,12 +38,15 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from scripts._env import pythonpath_first  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def nb(work: Path, *args: str) -> str:
     """Run ``navbench ARGS`` in ``work`` as its own process; its stdout (stderr on failure)."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(ROOT / ".numba_cache")}
+    env = {**os.environ, "PYTHONPATH": pythonpath_first(ROOT), "NUMBA_CACHE_DIR": str(ROOT / ".numba_cache")}
     p = subprocess.run([sys.executable, "-m", "navbench.cli.main", *map(str, args)], cwd=work,
                        capture_output=True, text=True, env=env)
     if p.returncode != 0:

@@ -32,6 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from scripts._env import pythonpath_first  # noqa: E402
 from scripts.golden_rows import COLUMNS, PROFILE  # noqa: E402
 
 
@@ -47,7 +48,7 @@ def scratch_project(where: Path) -> Path:
 
 
 def run_grid(proj: Path, *args: str) -> list[tuple]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "NAVBENCH_DB": f"sqlite:///{proj / 'g.db'}",
+    env = {**os.environ, "PYTHONPATH": pythonpath_first(ROOT), "NAVBENCH_DB": f"sqlite:///{proj / 'g.db'}",
            "RAY_ENABLE_UV_RUN_RUNTIME_ENV": "0"}
     res = subprocess.run([sys.executable, "-m", "navbench.cli.main", "run-navigation", "--profile",
                           "golden.toml", *args], cwd=proj, env=env, capture_output=True, text=True)

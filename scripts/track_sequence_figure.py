@@ -28,9 +28,12 @@ import sys
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from scripts._env import pythonpath_first  # noqa: E402
+
 
 def cli(*args, cwd: Path) -> tuple[int, str, str]:
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env = {**os.environ, "PYTHONPATH": pythonpath_first(Path(__file__).resolve().parents[1])}
     p = subprocess.run([sys.executable, "-m", "navbench.cli.main", *map(str, args)], cwd=cwd,
                        capture_output=True, text=True, env=env)
     return p.returncode, p.stdout, p.stderr

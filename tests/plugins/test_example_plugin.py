@@ -6,7 +6,6 @@ checks the name) and built in the pool's worker processes (which run every episo
 from __future__ import annotations
 
 import importlib.util
-import os
 import shutil
 import sqlite3
 import subprocess
@@ -16,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from scripts._env import pythonpath_first
 from tests.bad_input.conftest import assert_clean_error, nb_subprocess
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,7 +41,7 @@ def plugin_site(tmp_path_factory) -> Path:
 
 
 def with_plugin(site: Path) -> dict:
-    return {"PYTHONPATH": os.pathsep.join([str(site), str(ROOT)])}
+    return {"PYTHONPATH": pythonpath_first(site, ROOT)}
 
 
 def test_run_navigation_with_the_example_plugin(project, plugin_site):
