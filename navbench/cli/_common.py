@@ -8,8 +8,11 @@ from typing import Any
 
 from rich.console import Console
 
-console = Console(stderr=False, highlight=False)
-err_console = Console(stderr=True, highlight=False)
+# soft_wrap: a printed line is never broken at the console's width (80 columns when output is
+# piped), so a long path stays one line that a script can parse and a user can paste; tables
+# and other renderables still lay out at the width.
+console = Console(stderr=False, highlight=False, soft_wrap=True)
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 
 
 def print_json(obj: Any) -> None:

@@ -33,7 +33,7 @@ class PipelineUI:
     """Log lines and progress bars on one console (stderr when stdout carries JSON)."""
 
     def __init__(self, json_mode: bool = False, quiet: bool = False):
-        self.console = Console(stderr=json_mode, highlight=False)
+        self.console = Console(stderr=json_mode, highlight=False, soft_wrap=True)  # as cli._common's
         self.quiet = quiet
         self.progress = Progress(
             SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(bar_width=24),
