@@ -242,4 +242,5 @@ def test_device_option_is_checked(monkeypatch):
     with pytest.raises(ConfigError, match="no CUDA"):
         resolve_fit_device("cuda:0")
     monkeypatch.setattr(torch.cuda, "is_available", lambda: True)  # as on a GPU machine
-    assert resolve_fit_device("auto") == "cuda" and resolve_fit_device("cuda:1") == "cuda:1"
+    # "auto" stays the CPU path there (measured faster on an H100; one key, one map everywhere)
+    assert resolve_fit_device("auto") == "cpu" and resolve_fit_device("cuda:1") == "cuda:1"
