@@ -73,12 +73,14 @@ from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from navbench.errors import NavbenchError
 from navbench.geometry import Frame, Intrinsics, camera_pose, wrap_angle
 from navbench.localize import signature as sig
 from navbench.track.eq7 import (TrackerConfig, accumulate, linearization, pixel_table, prepare_reference,
                                 prior_terms, retract, sample_observation, to_planar)
+from navbench.track.lie import se3_inverse
 
 
 class LocalizationError(NavbenchError):
@@ -367,9 +369,10 @@ def align_planar(ref, frame: Frame, pose: np.ndarray, cfg: TrackerConfig, idx: n
     obs = sample_observation(frame, ref.intr, idx)
     state = np.asarray(pose, np.float64).copy()
     scale = cfg.pixel_scale / max(len(idx), 1)
+    T_ref_inv = se3_inverse(ref.T_wc)  # one reference for every iteration
     for it in range(cfg.gn_iters):
         geo_only = it < cfg.gn_geo_iters
-        Trel, B, b = linearization("planar", state, ref.T_wc, camera_height)
+        Trel, B, b = linearization("planar", state, ref.T_wc, camera_height, T_ref_inv)
         acc = accumulate(ref, obs, Trel, B, b, cfg, photometric=not geo_only)
         _, pg, pH = prior_terms("planar", state, pose, cfg, camera_height)
         try:
@@ -404,26 +407,42 @@ def candidates(best_s: np.ndarray, best: np.ndarray, points: np.ndarray, k: int,
     """The ``k`` best (lattice point, heading) given each point's best heading bin ``best_s (N,)``
     and its cost ``best (N,)`` (``inf``: not a candidate), each a local minimum over the others
     within ``nms_radius`` m and ``nms_deg`` degrees (non-maximum suppression), best first, as
-    poses ``(x, y, theta)``."""
+    poses ``(x, y, theta)``. The suppression is :func:`_suppress` (compiled; the numpy loop it
+    replaced is its reference in the tests, equal bit for bit)."""
     bins = cfg.bins
     idx = np.flatnonzero(np.isfinite(best))
     idx = idx[np.argsort(best[idx], kind="stable")]
     heads = best_s[idx] * (2 * math.pi / bins)
-    xy = points[idx]
-    alive = np.ones(len(idx), bool)
-    out: list[np.ndarray] = []
+    xy = np.ascontiguousarray(points[idx], dtype=np.float64)
+    keep = _suppress(xy, np.ascontiguousarray(heads, dtype=np.float64), int(k),
+                     float(cfg.nms_radius), math.radians(cfg.nms_deg))
+    return [np.array([xy[p, 0], xy[p, 1], float(wrap_angle(heads[p]))]) for p in keep]
+
+
+@njit(cache=True)
+def _suppress(xy, heads, k, radius, max_dh):
+    """Greedy non-maximum suppression over points sorted best first: the positions kept (at most
+    ``k``); each kept point removes every still-alive point (itself included) within ``radius``
+    (``hypot``) and ``max_dh`` (wrapped heading difference, as :func:`wrap_angle`)."""
+    n = heads.shape[0]
+    alive = np.ones(n, np.bool_)
+    out = np.empty(max(k, 0), np.int64)
+    m = 0
     pos = 0
-    while len(out) < k:
-        while pos < len(idx) and not alive[pos]:
+    while m < k:
+        while pos < n and not alive[pos]:
             pos += 1
-        if pos >= len(idx):
+        if pos >= n:
             break
-        out.append(np.array([xy[pos, 0], xy[pos, 1], float(wrap_angle(heads[pos]))]))
-        near = (np.hypot(xy[:, 0] - xy[pos, 0], xy[:, 1] - xy[pos, 1]) < cfg.nms_radius) & \
-            (np.abs(wrap_angle(heads - heads[pos])) < math.radians(cfg.nms_deg))
-        alive &= ~near
+        out[m] = pos
+        m += 1
+        x0, y0, h0 = xy[pos, 0], xy[pos, 1], heads[pos]
+        for j in range(n):
+            if alive[j] and math.hypot(xy[j, 0] - x0, xy[j, 1] - y0) < radius:
+                if abs((heads[j] - h0 + math.pi) % (2 * math.pi) - math.pi) < max_dh:
+                    alive[j] = False
         pos += 1
-    return out
+    return out[:m]
 
 
 def _dedupe(hyps: list[Hypothesis]) -> list[Hypothesis]:
