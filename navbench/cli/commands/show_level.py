@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import typer
@@ -23,18 +24,31 @@ def register(app: typer.Typer) -> None:
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        from matplotlib.backend_bases import FigureCanvasBase
 
         from navbench.levelio import resolve_level
         from navbench.levelview import draw_level
+        from navbench.outpath import check_output, writing
 
+        # what savefig can write, by suffix (without one it would silently append .png)
+        formats = tuple(sorted(f".{s}" for s in FigureCanvasBase.get_supported_filetypes()))
+        if out is not None:  # checked before the level is read and drawn
+            check_output(out, "--out", kind="file", suffixes=formats, example="maze.png")
         level = resolve_level(name)
-        out = out if out is not None else Path("results") / "levels" / f"{level.name}.png"
-        out.parent.mkdir(parents=True, exist_ok=True)
+        if out is None:
+            out = Path("results") / "levels" / f"{level.name}.png"
+            check_output(out, "--out (default)", kind="file")
         fig, ax = plt.subplots(figsize=(6.4, 6.4 * level.depth / level.width + 0.4))
+        # drawn into a temporary file beside OUT and renamed: never a half-written OUT
+        tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
         try:
             draw_level(ax, level, doors=doors)
             fig.tight_layout()
-            fig.savefig(out, dpi=dpi)
+            with writing(out, "--out", "the figure"):
+                out.parent.mkdir(parents=True, exist_ok=True)
+                fig.savefig(tmp, dpi=dpi, format=out.suffix[1:].lower())
+                os.replace(tmp, out)
         finally:
             plt.close(fig)
+            tmp.unlink(missing_ok=True)
         console.print(f"{level.name}: top view -> {out}", markup=False, highlight=False)

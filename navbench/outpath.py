@@ -1,0 +1,94 @@
+"""Checking a user-given output path before any work, and turning a failed write into one line.
+
+A command that writes to a path the user named calls :func:`check_output` first (before it
+loads, fits, tracks or samples anything), so that a folder given for a file, a file given for a
+folder, a parent that is a file, a location nobody may write to, or a suffix the writer does
+not support is one :class:`~navbench.errors.ConfigError` naming the option and the path, not a
+traceback after minutes of work. :func:`writing` turns an ``OSError`` that still happens while
+writing (disk full, a race) into the same kind of one-line error.
+
+Light imports only (the CLI imports this module from its commands).
+"""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from pathlib import Path
+
+from navbench.errors import ConfigError
+
+
+def _where(option: str | None, path: Path) -> str:
+    return f"{option} {path}" if option else str(path)
+
+
+def _existing_ancestor(path: Path) -> Path:
+    """The nearest ancestor of ``path`` (or ``path`` itself) that exists (``.`` for a relative
+    path whose first part is new)."""
+    a = path
+    while not (a.exists() or a.is_symlink()):
+        if a.parent == a:
+            break
+        a = a.parent
+    return a
+
+
+def check_output(path: str | Path, option: str | None = None, *, kind: str = "file",
+                 suffixes: tuple[str, ...] | None = None, example: str | None = None) -> Path:
+    """Refuse an output path that cannot be written; return it as a :class:`Path`.
+
+    ``kind`` is ``"file"`` (the command writes the file ``path``) or ``"dir"`` (it writes into
+    the folder ``path``, created if new). ``suffixes`` (lower case, with the dot): the file
+    suffixes the writer supports (a file only). ``option`` names the option or argument in the
+    message (``--out``); ``example`` is a path the message suggests.
+
+    Refused, as one :class:`ConfigError`: a folder where a file is expected, a file where a
+    folder is expected, an unsupported or missing suffix, a parent (or further ancestor) that
+    is a file, and a location where no file can be created (checked by creating and removing
+    a temporary file in the nearest existing folder: permissions alone do not tell for root,
+    a read-only file system or ``/proc``).
+    """
+    if kind not in ("file", "dir"):
+        raise ValueError(f"kind: expected 'file' or 'dir', got {kind!r}")
+    p = Path(path)
+    where = _where(option, p)
+    eg = f" (e.g. {example})" if example else ""
+    if kind == "file":
+        if p.is_dir():
+            raise ConfigError(f"{where}: is a folder; give a file name{eg}")
+        if suffixes is not None and p.suffix.lower() not in suffixes:
+            got = f"suffix {p.suffix!r}" if p.suffix else "no suffix"
+            raise ConfigError(f"{where}: {got}; the file must end in {', '.join(suffixes)}{eg}")
+        start = p.parent
+    else:
+        if (p.exists() or p.is_symlink()) and not p.is_dir():
+            raise ConfigError(f"{where}: is a file, not a folder; give a folder{eg}")
+        start = p
+    a = _existing_ancestor(start)
+    if not a.is_dir():
+        raise ConfigError(f"{where}: {a} is a file, not a folder; give a path in a folder{eg}")
+    import tempfile
+
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".navbench-probe-", dir=a)
+    except OSError as e:
+        raise ConfigError(f"{where}: cannot write in {a} ({e.strerror or e}); give a path in a "
+                          f"folder you can write{eg}") from None
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:
+        pass
+    return p
+
+
+@contextmanager
+def writing(path: str | Path, option: str | None = None, what: str = "the output"):
+    """Turn an ``OSError`` raised inside the block into one :class:`ConfigError` naming
+    ``option`` and ``path``."""
+    try:
+        yield
+    except OSError as e:
+        raise ConfigError(f"{_where(option, Path(path))}: cannot write {what} "
+                          f"({e.strerror or e})") from None
