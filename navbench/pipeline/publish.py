@@ -32,7 +32,8 @@ def check_report_dir(dest: str | Path, option: str, protected: list[Path]) -> Pa
 
     Allowed: a folder that does not exist yet, an empty folder, or a folder navbench published
     before (it holds :data:`REPORT_MARKER`). Refused (:class:`ConfigError` naming ``option``): a
-    file, a symbolic link, a non-empty folder without the marker (``results/``, ``.``, a user's
+    file, a new name ending in .html, a path under a file or where nothing can be written
+    (:func:`navbench.outpath.check_output`), a symbolic link, a non-empty folder without the marker (``results/``, ``.``, a user's
     folder), and anything that is, contains or lies inside one of the ``protected`` paths.
     """
     from navbench.errors import ConfigError
@@ -43,6 +44,13 @@ def check_report_dir(dest: str | Path, option: str, protected: list[Path]) -> Pa
         raise ConfigError(f"{where}: is a symbolic link; give a real folder")
     if dest.exists() and not dest.is_dir():
         raise ConfigError(f"{where}: is a file, not a folder")
+    if not dest.exists() and dest.suffix.lower() in (".html", ".htm"):
+        raise ConfigError(f"{where}: names a file, but the report is a folder (index.html and "
+                          "the CSV tables go in it); give a folder, e.g. results/report")
+    from navbench.outpath import check_output
+
+    # a parent that is a file, or a place nobody can write (/proc, read-only): before any work
+    check_output(dest, option, kind="dir", example="results/report")
     target = dest.resolve()
     for p in protected:
         q = p.resolve()
@@ -69,21 +77,25 @@ def publish(src_dir: Path, dest: Path, protected: list[Path] | None = None,
 
     protected = protected if protected is not None else protected_paths()
     dest = check_report_dir(dest, option, protected)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent))
+    from navbench.outpath import writing
+
+    with writing(dest, option, "the report"):
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent))
     try:
-        new, old = work / "new", work / "old"
-        shutil.copytree(src_dir, new, ignore=shutil.ignore_patterns("manifest.json"))
-        mark_report_dir(new)
-        if dest.exists():
-            check_report_dir(dest, option, protected)  # still a published report just before the swap
-            dest.rename(old)
-        try:
-            new.rename(dest)
-        except OSError:
-            if old.exists():
-                old.rename(dest)
-            raise
+        with writing(dest, option, "the report"):  # disk full, a race: one line
+            new, old = work / "new", work / "old"
+            shutil.copytree(src_dir, new, ignore=shutil.ignore_patterns("manifest.json"))
+            mark_report_dir(new)
+            if dest.exists():
+                check_report_dir(dest, option, protected)  # still a published report just before the swap
+                dest.rename(old)
+            try:
+                new.rename(dest)
+            except OSError:
+                if old.exists():
+                    old.rename(dest)
+                raise
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return dest

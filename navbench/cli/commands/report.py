@@ -34,6 +34,7 @@ def report(
     from navbench.pipeline.report import build_report, store_loaders
 
     from navbench.nav.presets import get_preset
+    from navbench.outpath import writing
 
     if preset is not None:
         get_preset(preset, "--preset")
@@ -49,10 +50,11 @@ def report(
             preset, mixed = default_preset(select_episodes(rdb, run=run))
             if mixed:
                 err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
-        index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
-                             levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
-                             run=run, preset=preset)
-    mark_report_dir(index.parent)
+        with writing(out, "--out", "the report"):  # a write that still fails: one line
+            index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
+                                 levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
+                                 run=run, preset=preset)
+            mark_report_dir(index.parent)
     console.print(f"report written to {escape(str(index))}")
 
 
