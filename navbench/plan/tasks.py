@@ -347,7 +347,8 @@ def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out
     """Sample ``count`` tasks for a level file and write the task file; return its path and content.
 
     The level is resolved by name (``<root>/levels/<name>.json``) or path; its file text's
-    sha256 goes into the task file. ``out_dir`` defaults to ``<root>/tasks``.
+    sha256 goes into the task file. ``out_dir`` (a folder, created if new) defaults to
+    ``<root>/tasks``.
     """
     from navbench.levelio import read_level_file, level_path
 
@@ -359,6 +360,10 @@ def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out
         raise TaskError(f"{p}: no such level file")
     level, text = read_level_file(p, name=p.stem)  # its name becomes the task file's name
     tasks = sample_tasks(level, count, seed)
-    out = save_tasks(Path(out_dir) if out_dir is not None else Path(root) / "tasks", level.name, tasks,
-                     level_hash=level_sha256(text), seed=seed)
+    folder = Path(out_dir) if out_dir is not None else Path(root) / "tasks"
+    try:  # out_dir is a folder, whatever its name (save_tasks takes a name with a suffix for a file)
+        folder.mkdir(parents=True, exist_ok=True)
+        out = save_tasks(folder, level.name, tasks, level_hash=level_sha256(text), seed=seed)
+    except OSError as e:
+        raise TaskError(f"{folder}: cannot write the task file ({e.strerror or e})") from None
     return out, TaskSet(level.name, level_sha256(text), seed, tuple(tasks))

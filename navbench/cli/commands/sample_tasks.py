@@ -19,6 +19,16 @@ def sample_tasks_cmd(
 
     from navbench.plan.tasks import make_task_file
 
+    if out is not None:  # a folder (the file is named LEVEL-COUNT-HASH.json): checked before sampling
+        from pathlib import Path
+
+        from navbench.errors import ConfigError
+        from navbench.outpath import check_output
+
+        if not Path(out).is_dir() and Path(out).suffix.lower() == ".json":
+            raise ConfigError(f"--out {out}: names a file, but --out is the folder the task file "
+                              f"goes in (named LEVEL-COUNT-HASH.json); give a folder, e.g. tasks")
+        check_output(out, "--out", kind="dir", example="tasks")
     path, ts = make_task_file(level, count=count, seed=seed, out_dir=out)
     lengths = np.array([t.optimal_length for t in ts.tasks])
     # user text (paths, names) is printed without markup: a '[/x]' in a path is not a tag
