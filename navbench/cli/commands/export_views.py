@@ -27,6 +27,11 @@ def register(app: typer.Typer) -> None:
         if is_tum_dir(Path(views_spec)):
             raise ConfigError(f"VIEWS {views_spec}: a directory without views.json (a TUM "
                               f"directory is already exported; import-views reads it)")
+        from navbench.outpath import check_output
+
+        check_output(directory, "DIR", kind="dir", example="tum/seq1")  # before the views are read
         views, _ = resolve_views(views_spec, what="VIEWS")
         export_views(views, directory)
-        console.print(f"exported {len(views)} views of {views.level} -> {directory}", soft_wrap=True)
+        # user text (paths, level names) is printed literally: a '[/x]' in a path is not a tag
+        console.print(f"exported {len(views)} views of {views.level} -> {directory}", soft_wrap=True,
+                      markup=False, highlight=False)

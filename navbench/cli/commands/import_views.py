@@ -38,6 +38,11 @@ def register(app: typer.Typer) -> None:
         if out is not None and (out.exists() or out.is_symlink()):
             raise ConfigError(f"--out {out}: already exists; choose a new path (import-views "
                               f"never overwrites)")
+        if out is not None:  # a parent that is a file, or nowhere to write: before reading
+            from navbench.outpath import check_output
+
+            check_output(out, "--out", kind="file" if out.suffix == ".npz" else "dir",
+                         example="views.npz")
         views = opts.read(directory)
         content = views_content_hash(views)
         if out is not None:
@@ -57,4 +62,4 @@ def register(app: typer.Typer) -> None:
         where = " and ".join(([str(out)] if out else []) + ([f"the cache, key {ref.key[:12]}"] if ref else []))
         console.print(f"imported {len(views)} views ({i.width}x{i.height}, fx {i.fx:g}) from "
                       f"{directory} -> {where}; max camera tilt {views.meta['max_tilt_deg']:.2f} deg",
-                      soft_wrap=True)
+                      soft_wrap=True, markup=False, highlight=False)  # paths are not markup
