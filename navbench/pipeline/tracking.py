@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from navbench.errors import ArtifactError
 from navbench.pipeline.run import recorded_run
 from navbench.pipeline.stages.sequence import (
     SequenceResult,
@@ -140,8 +141,6 @@ def export_trajectories(out_dir, db, store=None, *, run: int | None = None, leve
     import numpy as np
 
     from navbench.errors import ConfigError
-    from navbench.nav.metrics import location_rmse
-    from navbench.worldmodel.tumtraj import write_trajectory
 
     if source not in EXPORT_SOURCES:
         raise ConfigError(f"--source: expected one of {', '.join(EXPORT_SOURCES)}, got {source!r}")
@@ -205,6 +204,26 @@ def export_trajectories(out_dir, db, store=None, *, run: int | None = None, leve
                f"episodes and {counts.get('tracking', 0)} track-eval rows")
         raise ConfigError(f"export-trajectories: no stored trajectory matches "
                           f"{what or 'anything'} (source {source}){why}")
+    created = not out.exists()
+    try:
+        return _write_pairs(out, pairs, dt)
+    except (OSError, ArtifactError) as e:
+        if created:  # no half-written export: the folder this call made goes
+            import shutil
+
+            shutil.rmtree(out, ignore_errors=True)
+        if isinstance(e, ArtifactError):
+            raise
+        raise ArtifactError(f"{out}: cannot write the export ({e.strerror or e})") from None
+
+
+def _write_pairs(out: Path, pairs: list[tuple], dt: float) -> list[ExportedPair]:
+    """Write the TUM pairs and ``index.csv`` of :func:`export_trajectories` under ``out``."""
+    import numpy as np
+
+    from navbench.nav.metrics import location_rmse
+    from navbench.worldmodel.tumtraj import write_trajectory
+
     exported = []
     lines = ["source,level,estimator,noise,task,seed,key,poses,loc_rmse_m,gt,est"]
     for (src, lvl, est_name, nz, tid, seed, key), truth, est, cam_h in pairs:

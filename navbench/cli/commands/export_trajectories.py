@@ -39,6 +39,9 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.run import open_db
         from navbench.pipeline.tracking import export_trajectories
 
+        from navbench.outpath import check_output
+
+        check_output(out, "DIR", kind="dir", example="trajectories")  # before the database is read
         try:
             tasks = [int(t) for t in parse_list(task)] or None
         except ValueError:
