@@ -53,6 +53,8 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.stages.sequence import TrackSequenceConfig
         from navbench.pipeline.tracking import track_sequence
 
+        if out is not None:  # checked before the sequence is read and tracked
+            _check_out(out, directory, odometry)
         reading = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                       max_height_dev)
         cfg = TrackSequenceConfig(estimator=estimator, odometry=odometry, seed=seed,
@@ -76,6 +78,23 @@ def register(app: typer.Typer) -> None:
         console.print(f"  estimate        {s['out']}", markup=False, soft_wrap=True)
         if res.stored is not None:
             console.print(f"  stored {res.stored} new sequence_tracking row(s)", markup=False)
+
+
+def _check_out(out: Path, directory: Path, odometry: str) -> None:
+    """Refuse an ``--out`` that is not a TUM text file or that would overwrite an input: the
+    sequence's rgb.txt, depth.txt, groundtruth.txt or the odometry file."""
+    from navbench.errors import ConfigError
+    from navbench.outpath import check_output
+
+    check_output(out, "--out", kind="file", suffixes=(".txt", ".tum"), example="est.txt")
+    inputs = [directory / n for n in ("rgb.txt", "depth.txt", "groundtruth.txt")]
+    if not odometry.startswith("gt+"):
+        inputs.append(Path(odometry))
+    target = out.resolve()
+    for p in inputs:
+        if p.resolve() == target:
+            raise ConfigError(f"--out {out}: is an input of this command ({p}); the estimate "
+                              f"goes to a new file, e.g. est.txt")
 
 
 def _parse_options(items: list[str]) -> dict:
