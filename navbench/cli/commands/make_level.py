@@ -16,7 +16,10 @@ def _write(level, force: bool) -> tuple[Path, str]:
     from navbench.errors import LevelError
     from navbench.levelio import dumps_level, level_path, save_level
 
+    from navbench.outpath import check_output, writing
+
     path = level_path(level.name)
+    check_output(path, None, kind="file")  # levels/ a file, NAME.json a folder, no permission
     text = dumps_level(level)
     if path.exists():
         try:
@@ -28,9 +31,11 @@ def _write(level, force: bool) -> tuple[Path, str]:
         if not force:
             raise LevelError(f"{path} exists and differs from the generated level; "
                              "pass --force to overwrite it")
-        save_level(level, path)
+        with writing(path, None, "the level"):
+            save_level(level, path)
         return path, "replaced"
-    save_level(level, path)
+    with writing(path, None, "the level"):
+        save_level(level, path)
     return path, "written"
 
 
