@@ -294,7 +294,7 @@ def test_export_views_to_a_file(project, views_artifact):
     content = target.read_bytes()
     before = tree_snapshot(project)
     res = nb("export-views", views_artifact, target)
-    assert_clean_error(res, "levels/tiny.json", "not a directory")
+    assert_clean_error(res, "levels/tiny.json", "is a file, not a folder")
     assert target.read_bytes() == content and tree_snapshot(project) == before
 
 
@@ -316,7 +316,7 @@ def test_import_views_out_exists(project, tum):
 def test_import_views_out_below_a_file(project, tum):
     before = tree_snapshot(project)
     res = nb("import-views", tum, "--out", "levels/tiny.json/views")
-    assert_clean_error(res, "levels/tiny.json/views", "cannot write")
+    assert_clean_error(res, "levels/tiny.json/views", "levels/tiny.json is a file, not a folder")
     assert tree_snapshot(project) == before
 
 
