@@ -14,19 +14,9 @@ from pathlib import Path
 import pytest
 
 from tests.bad_input.conftest import assert_clean_error, nb, tree_snapshot
+from tests.bad_input.test_levels_tasks import TRUE_MAP_PROFILE
 from tests.bad_input.test_views import make_tum
 
-TRUE_MAP_PROFILE = """
-name = "tinytrue"
-levels = ["tiny"]
-[tasks]
-count = 2
-[navigation]
-estimators = ["gt"]
-noise = ["low"]
-workers = 1
-map = "true"
-"""
 
 UNWRITABLE = Path("/proc/navbench-out")  # /proc refuses new files, even to root
 
