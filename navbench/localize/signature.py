@@ -219,6 +219,11 @@ def trimmed_costs(pano, Q, shifts, tau, keep):
     return out
 
 
+#: Lattice points per block of :meth:`Correlator.best` (house-1's 6408 points: 5.6 -> 5.1 ms a
+#: query at 512, measured alternating; 64 is slower than one block, 256-1024 alike).
+BEST_BLOCK = 512
+
+
 class Correlator:
     """The FFT form of the panoramas ``pano (N, C, bins)`` for windows of ``-R .. R`` bins."""
 
@@ -249,9 +254,12 @@ class Correlator:
         corr = np.fft.irfft(pr + 1j * pi, n=A, axis=-1)
         return float((Q ** 2).sum()) + self.energy - 2.0 * corr
 
-    def best(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def best(self, Q: np.ndarray, block: int = BEST_BLOCK) -> tuple[np.ndarray, np.ndarray]:
         """``(shift (N,) int, cost (N,))``: each point's best shift and its cost, the row minima
-        of :meth:`costs` (float32 FFTs through :mod:`scipy.fft`, minima in one fused pass)."""
+        of :meth:`costs` (float32 FFTs through :mod:`scipy.fft`, minima in one fused pass),
+        ``block`` lattice points at a time so that a block's products, correlations and minima
+        stay in cache (each row's arithmetic is the same: the result does not depend on
+        ``block``, tested)."""
         from scipy import fft as sfft
 
         A = self.bins
@@ -261,13 +269,18 @@ class Correlator:
         Qr = np.ascontiguousarray(FQ.real, dtype=np.float32)
         Qi = np.ascontiguousarray(FQ.imag, dtype=np.float32)
         N, _, K = self.Fr.shape
-        prod = np.empty((N, K), np.complex64)
-        pr, pi = np.empty((N, K), np.float32), np.empty((N, K), np.float32)
-        _channel_products(self.Fr, self.Fi, Qr, Qi, pr, pi)
-        prod.real, prod.imag = pr, pi
-        corr = sfft.irfft(prod, n=A, axis=-1, workers=1)
+        qq = float((np.asarray(Q, np.float64) ** 2).sum())
         shift, cost = np.empty(N, np.int64), np.empty(N, np.float64)
-        _row_minima(float((np.asarray(Q, np.float64) ** 2).sum()), self.energy, corr, shift, cost)
+        B = max(1, min(int(block), N))
+        prod = np.empty((B, K), np.complex64)
+        pr, pi = np.empty((B, K), np.float32), np.empty((B, K), np.float32)
+        for a in range(0, N, B):
+            b = min(a + B, N)
+            m = b - a
+            _channel_products(self.Fr[a:b], self.Fi[a:b], Qr, Qi, pr[:m], pi[:m])
+            prod.real[:m], prod.imag[:m] = pr[:m], pi[:m]
+            corr = sfft.irfft(prod[:m], n=A, axis=-1, workers=1)
+            _row_minima(qq, self.energy[a:b], corr, shift[a:b], cost[a:b])
         return shift, cost
 
 

@@ -75,6 +75,19 @@ def test_best_shifts_are_the_row_minima_of_the_costs():
     np.testing.assert_allclose(cost, D.min(axis=1), rtol=1e-4)
 
 
+def test_best_does_not_depend_on_the_block_size():
+    """:meth:`Correlator.best` works ``block`` points at a time; every block size (one, a
+    divisor, not a divisor, all points at once) gives the same bits."""
+    rng = np.random.default_rng(2)
+    pano = rng.random((517, 8, 192)).astype(np.float32)
+    Q = rng.random((8, 61))
+    corr = sig.Correlator(pano, 30)
+    want = corr.best(Q, block=len(pano))
+    for block in (1, 47, 64, 512, 10_000):
+        got = corr.best(Q, block=block)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1]), block
+
+
 def test_heading_only_change_recovered_exactly(loc):
     """A window cut from a stored panorama at shift s is found at shift s with cost 0, and a
     rendered query at a lattice point with a heading on a bin gets that bin as its coarse heading."""
