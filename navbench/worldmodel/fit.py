@@ -16,11 +16,8 @@ batch reaches it), which costs O(batch) instead of O(grid) per step — a dense 
 3.2 M grid values is slower than the whole rest of a step on 2 CPU cores.
 ``optimizer="adam"`` is the paper's dense Adam (``torch.optim.Adam(fused=True)``).
 
-Devices (``FitConfig.device``, default ``"auto"``, which is the CPU path on every machine: on an
-H100 with 16 cores the device path ran 10 000 steps in 209 s, the CPU path's 1000 steps took 12 s
-there, and 151 s for 10 000 on a 2-core laptop (README, "A GPU"); the device path is bound by its
-~40 small kernel launches and host-to-device copies per step. "auto" thus also means the same map
-from the same key on every machine):
+Devices (``FitConfig.device``, default ``"auto"``: the CPU path on every machine, measured faster
+than the device path even on an H100 (README, "A GPU"), and one map per cache key everywhere):
 
 ``"cpu"``
     the path above: numpy grids, numba crossing search and row updates, autograd on the
@@ -118,8 +115,7 @@ class FitConfig:
     optimizer: str = "lazy-adam"  # "adam": dense torch Adam (fused); "lazy-adam": touched cells only
     seed: int = 0  # seed of the batch sampling
     threads: int = 1  # torch threads during the fit (the torch graph is tiny; 1 avoids spin contention)
-    # where the fit runs: "auto" = "cpu", measured faster than "cuda" on an H100 (module docstring),
-    # and the same map on every machine for the same cache key; "cpu" = the sparse
+    # where the fit runs: "auto" = "cpu" (module docstring); "cpu" = the sparse
     # numba path; "cuda" / "cuda:N" = the device path on that GPU (render_rays_torch, the same
     # objective, batches and optimiser semantics: MaskedAdam for "lazy-adam", fused Adam for
     # "adam"); "torch-cpu" = the device path on the CPU (slow; it exists so the GPU path's code
