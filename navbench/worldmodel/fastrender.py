@@ -389,8 +389,10 @@ render_kernel_serial = nb.njit(cache=True)(_named_copy(_render_kernel, "_render_
 render_list = nb.njit(cache=True, parallel=True)(_named_copy(_render_list, "_render_list_parallel"))
 render_list_serial = nb.njit(cache=True, nogil=True)(_named_copy(_render_list, "_render_list_serial"))
 #: Images with at least this many pixels render on numba's threads by default (measured on 2
-#: idle cores: 160 x 120 in 1.9 ms parallel vs 4.1 ms on one thread; 320 x 240 in 7.6 vs 14 ms).
-PARALLEL_MIN_PIXELS = 160 * 120
+#: idle cores: 160 x 120 in 1.9 ms parallel vs 4.1 ms on one thread; 320 x 240 in 7.6 vs 14 ms;
+#: 2026-11-23, house-1's 10 000-step map: 80 x 60, the localiser's refinement image, 0.43 vs
+#: 0.86 ms, and 40 x 30 still 0.6x, but smaller images stay serial for busy machines).
+PARALLEL_MIN_PIXELS = 80 * 60
 
 
 class FastRenderer:
