@@ -1,0 +1,49 @@
+"""Paired SPL and success differences between two sets of runs of the same tasks (issue 16).
+
+    python scripts/paired_runs.py --a 35,54 --b 95        # quick-budget maps vs the paper's budget
+
+Matches episodes of runs A and B on (level, task id, seed, noise, estimator): within A or B a
+(task, seed) counted twice keeps its last stored row, as `navbench score` does. Prints per
+estimator and noise the number of pairs, both mean SPLs and successes, and the mean of B − A SPL
+with a 95 % percentile bootstrap interval stratified by level (4000 resamples, seed 0).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sqlite3
+
+import numpy as np
+import pandas as pd
+
+KEY = ["level", "task_id", "seed", "noise", "estimator"]
+
+
+def runs_frame(con, runs: list[int]) -> pd.DataFrame:
+    q = ("SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success FROM episodes "
+         f"WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
+    return pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last").set_index(KEY)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--a", required=True, help="run ids, comma-separated")
+    ap.add_argument("--b", required=True, help="run ids, comma-separated")
+    ap.add_argument("--db", default="results/navbench.db", help="SQLite file")
+    args = ap.parse_args()
+    con = sqlite3.connect(args.db)
+    a = runs_frame(con, [int(r) for r in args.a.split(",")])
+    b = runs_frame(con, [int(r) for r in args.b.split(",")])
+    j = a.add_suffix("_a").join(b.add_suffix("_b"), how="inner")
+    rng = np.random.default_rng(0)
+    for (est, noise), s in j.groupby(level=["estimator", "noise"], sort=True):
+        d = s.spl_term_b - s.spl_term_a
+        groups = [g.to_numpy() for _, g in d.groupby(level="level")]
+        boots = [np.mean(np.concatenate([rng.choice(g, len(g)) for g in groups])) for _ in range(4000)]
+        lo, hi = np.percentile(boots, [2.5, 97.5])
+        print(f"{est:9s} {noise:5s} pairs {len(d):4d}  SPL A {s.spl_term_a.mean():.3f} B {s.spl_term_b.mean():.3f} "
+              f"B-A {d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}]  success A {s.success_a.mean():.3f} B {s.success_b.mean():.3f}")
+
+
+if __name__ == "__main__":
+    main()
