@@ -33,7 +33,7 @@ def register(app: typer.Typer) -> None:
         # what savefig can write, by suffix (without one it would silently append .png)
         formats = tuple(sorted(f".{s}" for s in FigureCanvasBase.get_supported_filetypes()))
         if out is not None:  # checked before the level is read and drawn
-            check_output(out, "--out", kind="file", suffixes=formats, example="maze.png")
+            check_output(out, "--out", kind="file", suffixes=formats, example=f"{Path(name).stem}.png")
         level = resolve_level(name)
         if out is None:
             out = Path("results") / "levels" / f"{level.name}.png"
