@@ -71,12 +71,11 @@ def dumps_level(level: Level) -> str:
 
 def save_level(level: Level, path: str | Path) -> Path:
     """Write ``level`` atomically to ``path``."""
+    from navbench.outpath import write_text_atomic
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(dumps_level(level))
-    tmp.replace(path)
-    return path
+    return write_text_atomic(path, dumps_level(level))
 
 
 def _short(x, limit: int = 60) -> str:

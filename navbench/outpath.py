@@ -83,6 +83,24 @@ def check_output(path: str | Path, option: str | None = None, *, kind: str = "fi
     return p
 
 
+def write_text_atomic(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file beside it, renamed over it: a
+    reader never sees half a file, and a failed write leaves neither half a file nor the
+    temporary one. The folder must exist; an ``OSError`` propagates."""
+    p = Path(path)
+    tmp = p.with_name(f".{p.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(p)
+    except BaseException:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+        raise
+    return p
+
+
 @contextmanager
 def writing(path: str | Path, option: str | None = None, what: str = "the output"):
     """Turn an ``OSError`` raised inside the block into one :class:`ConfigError` naming

@@ -241,12 +241,10 @@ class ArtifactStore:
         """Record ``(stage, key)`` pairs used by the latest run called ``name`` (a gc root)."""
         d = self.root / REFS_DIR
         d.mkdir(parents=True, exist_ok=True)
-        p = d / f"{name}.json"
-        tmp = d / f".{name}.{os.getpid()}.tmp"
-        tmp.write_text(json.dumps({"name": name, "updated": time.time(),
-                                   "artifacts": sorted({(s, k) for s, k in keys})}, indent=1))
-        tmp.replace(p)
-        return p
+        from navbench.outpath import write_text_atomic
+
+        return write_text_atomic(d / f"{name}.json", json.dumps(
+            {"name": name, "updated": time.time(), "artifacts": sorted({(s, k) for s, k in keys})}, indent=1))
 
     def refs(self) -> dict[str, list[tuple[str, str]]]:
         """All ref files: name -> list of ``(stage, key)``."""

@@ -540,11 +540,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
         f"{len(tracking)} tracking rows. CSV files: "
         + ", ".join(f'<a href="{html.escape(c)}">{html.escape(c)}</a>' for c in page.csvs)
         + f".</p>\n<nav>{nav}</nav>\n" + "\n".join(page.sections) + "\n</body></html>\n")
-    index = out / "index.html"
-    tmp = out / ".index.html.tmp"
-    tmp.write_text(doc, encoding="utf-8")
-    tmp.replace(index)
-    return index
+    from navbench.outpath import write_text_atomic
+
+    return write_text_atomic(out / "index.html", doc)
 
 
 def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryLoader, MapLoader]:

@@ -196,11 +196,10 @@ def save_tasks(path, level_name: str, tasks, level_hash: str = "", seed: int | N
     path = Path(path)
     if path.is_dir() or path.suffix == "":
         path = path / task_file_name(level_name, len(tasks), text)
+    from navbench.outpath import write_text_atomic
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
-    return path
+    return write_text_atomic(path, text)
 
 
 def _short(x, limit: int = 60) -> str:

@@ -55,16 +55,12 @@ def write_trajectory(path, timestamps, poses, camera_height: float) -> Path:
     if len(ts) != len(poses):
         raise ValueError(f"{len(ts)} timestamps for {len(poses)} poses")
     lines = [pose_line(t, camera_pose(pose, camera_height)) for t, pose in zip(ts, poses)]
-    tmp = p.with_name(f".{p.name}.tmp")
-    try:  # through a temporary file: a failed write never leaves half a file at ``path``
+    from navbench.outpath import write_text_atomic
+
+    try:  # a failed write never leaves half a file at ``path``
         p.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text("\n".join(lines) + "\n")
-        tmp.replace(p)
+        write_text_atomic(p, "\n".join(lines) + "\n")
     except OSError as e:
-        try:
-            tmp.unlink(missing_ok=True)
-        except OSError:
-            pass
         raise ArtifactError(f"{p}: cannot write the trajectory ({e.strerror or e})") from None
     return p
 
