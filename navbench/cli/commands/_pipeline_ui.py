@@ -56,7 +56,7 @@ class PipelineUI:
         style = "dim" if ": cached " in msg or " from " in msg else None
         if msg.startswith("warning"):
             style = "yellow"
-        self.console.print(msg, style=style, highlight=False, markup=False, soft_wrap=True)
+        self.console.print(msg, style=style, highlight=False, markup=False)
 
     def bar(self, description: str, total: int | None, unit: str = "it"):
         """A new bar; returns ``update(done, total=None, loss=None)``."""

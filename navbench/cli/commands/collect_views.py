@@ -25,7 +25,7 @@ def _collect(level: str, count: int | None, camera: str | None, seed: int | None
         ref = collect_views_stage(ctx, lv, cfg)
     state = "cached" if ref.cached else "collected"
     console.print(f"{level}: {cfg.count} {cfg.camera} views (seed {cfg.seed}) {state}, "
-                  f"key [bold]{ref.key[:12]}[/bold] -> {ref.path}", soft_wrap=True)
+                  f"key [bold]{ref.key[:12]}[/bold] -> {ref.path}")
 
 
 def register(app: typer.Typer) -> None:

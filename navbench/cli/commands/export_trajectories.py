@@ -70,4 +70,4 @@ def register(app: typer.Typer) -> None:
         n_ep = sum(p.source == "episode" for p in pairs)
         console.print(f"exported {len(pairs)} trajectory pairs ({n_ep} episodes, "
                       f"{len(pairs) - n_ep} track-eval) -> {out} (index: {out / 'index.csv'})",
-                      markup=False, soft_wrap=True)
+                      markup=False)

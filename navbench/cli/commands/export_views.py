@@ -33,5 +33,5 @@ def register(app: typer.Typer) -> None:
         views, _ = resolve_views(views_spec, what="VIEWS")
         export_views(views, directory)
         # user text (paths, level names) is printed literally: a '[/x]' in a path is not a tag
-        console.print(f"exported {len(views)} views of {views.level} -> {directory}", soft_wrap=True,
+        console.print(f"exported {len(views)} views of {views.level} -> {directory}",
                       markup=False, highlight=False)

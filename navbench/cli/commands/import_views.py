@@ -62,4 +62,4 @@ def register(app: typer.Typer) -> None:
         where = " and ".join(([str(out)] if out else []) + ([f"the cache, key {ref.key[:12]}"] if ref else []))
         console.print(f"imported {len(views)} views ({i.width}x{i.height}, fx {i.fx:g}) from "
                       f"{directory} -> {where}; max camera tilt {views.meta['max_tilt_deg']:.2f} deg",
-                      soft_wrap=True, markup=False, highlight=False)  # paths are not markup
+                      markup=False, highlight=False)  # paths are not markup

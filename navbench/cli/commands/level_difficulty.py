@@ -50,4 +50,4 @@ def register(app: typer.Typer) -> None:
                       "shortest path, its first and last 0.5 m left out (m); length (m) and steps "
                       "(ceil(length / 0.8 L)): the shortest path; clear: mean clearance of the "
                       "reachable free space (m); plan%: its share >= 1.2 L from solids",
-                      markup=False, soft_wrap=True)
+                      markup=False)

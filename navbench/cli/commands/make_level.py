@@ -84,7 +84,7 @@ def register(app: typer.Typer) -> None:
                 raise ConfigError("--benchmark takes no NAME, --seed or --from-houseexpo")
             for lv in levelgen.benchmark_levels():
                 path, what = _write(lv, force)
-                console.print(_summary(lv, path, what), soft_wrap=True)
+                console.print(_summary(lv, path, what))
             return
         if name is None:
             raise ConfigError("give a level NAME (or --benchmark)")
@@ -100,7 +100,7 @@ def register(app: typer.Typer) -> None:
 
             level = change_level(resolve_level(changed_from), name, changes, seed)
             path, what = _write(level, force)
-            console.print(_summary(level, path, what), soft_wrap=True)
+            console.print(_summary(level, path, what))
             return
         if from_houseexpo is not None:
             if kind != "house" or rooms is not None:
@@ -118,4 +118,4 @@ def register(app: typer.Typer) -> None:
             level = levelgen.make_level(name, seed, kind=kind, size=size, rooms=rooms,
                                         obstacles=obstacles)
         path, what = _write(level, force)
-        console.print(_summary(level, path, what), soft_wrap=True)
+        console.print(_summary(level, path, what))

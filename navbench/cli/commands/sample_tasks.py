@@ -36,10 +36,10 @@ def sample_tasks_cmd(
     others = [p for p in path.parent.glob(f"{ts.level}-{ts.count}-*.json") if p != path]
     if others:
         console.print(f"note: other task files for {ts.level}: {', '.join(p.name for p in sorted(others))}",
-                      soft_wrap=True, markup=False, highlight=False)
+                      markup=False, highlight=False)
     console.print(f"{ts.count} tasks in {ts.level} (seed {seed}, level sha256 {ts.level_sha256[:12]}): "
                   f"optimal length min {lengths.min():.2f} m, median {np.median(lengths):.2f} m, "
-                  f"max {lengths.max():.2f} m", soft_wrap=True, markup=False, highlight=False)
+                  f"max {lengths.max():.2f} m", markup=False, highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -69,13 +69,13 @@ def register(app: typer.Typer) -> None:
             return
         s = summary
         console.print(f"{s['estimator']} on {directory} ({s['frames']} frames, odometry "
-                      f"{s['odometry']}, seed {s['seed']})", markup=False, soft_wrap=True)
+                      f"{s['odometry']}, seed {s['seed']})", markup=False)
         console.print(f"  ATE RMSE        {s['ate_m']:.4f} m   (odometry alone {s['odometry_ate_m']:.4f} m)",
                       markup=False)
         console.print(f"  RPE per frame   {s['rpe_m']:.4f} m, {s['rpe_deg']:.3f} deg", markup=False)
         console.print(f"  rotation RMSE   {s['rot_rmse_deg']:.3f} deg", markup=False)
         console.print(f"  time per frame  {s['ms_per_frame']:.2f} ms (median)", markup=False)
-        console.print(f"  estimate        {s['out']}", markup=False, soft_wrap=True)
+        console.print(f"  estimate        {s['out']}", markup=False)
         if res.stored is not None:
             console.print(f"  stored {res.stored} new sequence_tracking row(s)", markup=False)
 
