@@ -138,6 +138,8 @@ def tum(tmp_path) -> Path:
     ("afile/v.npz", "afile is a file, not a folder"),
     ("afile/vdir", "afile is a file, not a folder"),
     (str(UNWRITABLE / "v.npz"), "cannot write in /proc"),
+    ("v.txt", "a views artifact is a folder"),
+    ("v.NPZ", "not .NPZ"),
 ])
 def test_import_views_bad_out(project, afile, tum, out, says):
     before = tree_snapshot(project)
@@ -262,3 +264,31 @@ def test_make_level_over_a_folder(tmp_path, monkeypatch):
     res = nb("make-level", "foo", "--seed", "1", "--force")
     assert_clean_error(res, "levels/foo.json", "is a folder")
     assert Path("levels/foo.json").is_dir()
+
+
+# ------------------------------------------------------------------ cache --root, --db sqlite folder
+
+@pytest.mark.parametrize("cmd", [("cache", "ls"), ("cache", "gc"), ("cache", "gc", "--dry-run")])
+def test_cache_root_that_is_a_file(project, afile, cmd):
+    before = tree_snapshot(project)
+    res = nb(*cmd, "--root", "afile")
+    assert_clean_error(res, "--root afile", "is a file, not a cache folder")
+    _unchanged(project, before)
+
+
+def test_cache_root_that_does_not_exist_is_an_empty_cache(project):
+    res = nb("cache", "ls", "--root", "nope")
+    assert res.code == 0 and "no cache at nope yet: 0 artifacts" in res.out, res.output
+    res = nb("cache", "gc", "--root", "nope")
+    assert res.code == 0 and "nothing to remove" in res.out, res.output
+    assert not (project / "nope").exists()
+
+
+def test_db_folder_under_a_file_names_the_file(project, afile):
+    """Creating a database (run-navigation, all, ...) under a file: the message names the file."""
+    from navbench.errors import DatabaseError
+    from navbench.pipeline.db import ResultsDB
+
+    with pytest.raises(DatabaseError, match="afile/x.db: afile is a file, not a folder$"):
+        ResultsDB("sqlite:///afile/x.db", create=True)
+    assert afile.read_text() == "keep me\n"

@@ -15,6 +15,8 @@ One case (or parametrised family) per failure the probe found:
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import re
 import sqlite3
 import sys
@@ -85,6 +87,29 @@ def test_report_destination_never_loses_data(project):
     assert _rows(project / "results" / "navbench.db") == rows
     assert not written_outside(before, tree_snapshot(project),
                                ("levels/", "tasks/", "results/", "published/", "fresh/"))
+
+
+def test_report_that_fails_while_writing_keeps_the_earlier_report(project, monkeypatch):
+    """``report --out``: a write failing halfway (disk full) is one error line; the earlier
+    report stays whole and no half-built folder is left beside it."""
+    import errno
+
+    import navbench.pipeline.report as report_mod
+
+    assert nb("all", "--profile", "tiny.toml", "--report", "published").code == 0
+    before = tree_snapshot(project)
+
+    def full_disk(rdb, out, **kw):
+        (Path(out) / "index.html").write_text("<html>half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(report_mod, "build_report", full_disk)
+    res = nb("report", "--out", "published", "--boot", "10")
+    assert_clean_error(res, "--out published", "No space left on device")
+    assert tree_snapshot(project) == before
+    res = nb("report", "--out", "new/rep", "--boot", "10")
+    assert_clean_error(res, "--out new/rep")
+    assert not list((project / "new").iterdir()), "a half-built report was left"
 
 
 def test_publish_replaces_only_what_it_published(tmp_path):

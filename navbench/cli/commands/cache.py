@@ -9,6 +9,18 @@ from navbench.cli._common import console
 cache_app = typer.Typer(help="Inspect and prune the stage cache (results/cache).", no_args_is_help=True)
 
 
+def _cache_root(root: str):
+    """``root`` as a Path; a file there is one error line, a missing folder is an empty cache."""
+    from pathlib import Path
+
+    from navbench.errors import ConfigError
+
+    p = Path(root)
+    if (p.exists() or p.is_symlink()) and not p.is_dir():
+        raise ConfigError(f"--root {root}: is a file, not a cache folder (e.g. results/cache)")
+    return p
+
+
 def _human(n: int) -> str:
     for unit in ("B", "KB", "MB", "GB"):
         if n < 1024 or unit == "GB":
@@ -28,6 +40,9 @@ def ls(
 
     from navbench.pipeline.cache import ArtifactStore
 
+    if not _cache_root(root).is_dir():
+        console.print(f"no cache at {escape(root)} yet: 0 artifacts")
+        return
     store = ArtifactStore(root)
     infos = store.ls(stage)
     table = Table(title=f"{len(infos)} artifacts in {escape(root)}")
@@ -61,6 +76,9 @@ def gc(
     """
     from navbench.pipeline.cache import ArtifactStore
 
+    if not _cache_root(root).is_dir():
+        console.print(f"no cache at {root} yet: nothing to remove", markup=False)
+        return
     store = ArtifactStore(root)
     removed = store.gc(keep_newest=keep_newest, dry_run=dry_run)
     verb = "would remove" if dry_run else "removed"

@@ -17,7 +17,7 @@ def register(app: typer.Typer) -> None:
         directory: Path = typer.Argument(..., help="TUM RGB-D directory (rgb.txt, depth.txt, "
                                          "groundtruth.txt, rgb/, depth/)."),
         out: Path = typer.Option(None, "--out", help="Views artifact to write (a directory, or "
-                                 "a single file if it ends in .npz); must not exist yet."),
+                                 "a single file if it ends in .npz; no other suffix); must not exist yet."),
         store: bool = typer.Option(False, "--store", help="Store the views in the cache (keyed by "
                                    "their content) and print the key, for fit-map --views KEY."),
         fx: float = _tum.FX, fy: float = _tum.FY, cx: float = _tum.CX, cy: float = _tum.CY,
@@ -38,6 +38,10 @@ def register(app: typer.Typer) -> None:
         if out is not None and (out.exists() or out.is_symlink()):
             raise ConfigError(f"--out {out}: already exists; choose a new path (import-views "
                               f"never overwrites)")
+        if out is not None and out.suffix and out.suffix != ".npz":
+            raise ConfigError(f"--out {out}: a views artifact is a folder (a name without a "
+                              f"suffix, e.g. views/seq1) or one .npz file (e.g. views.npz), "
+                              f"not {out.suffix}")
         if out is not None:  # a parent that is a file, or nowhere to write: before reading
             from navbench.outpath import check_output
 

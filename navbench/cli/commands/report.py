@@ -29,7 +29,11 @@ def report(
     """
     from rich.markup import escape
 
-    from navbench.pipeline.publish import check_report_dir, mark_report_dir, protected_paths
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from navbench.pipeline.publish import check_report_dir, protected_paths, publish
     from navbench.pipeline.db import ResultsDB
     from navbench.pipeline.report import build_report, store_loaders
 
@@ -38,8 +42,10 @@ def report(
 
     if preset is not None:
         get_preset(preset, "--preset")
-    # the report's files are written in place: only into a new, empty or earlier report folder
-    check_report_dir(out, "--out", protected_paths(db, cache, levels))
+    # only into a new, empty or earlier report folder; built beside it, then swapped in whole,
+    # so a write that fails (disk full) leaves the earlier report as it was
+    protected = protected_paths(db, cache, levels)
+    dest = check_report_dir(out, "--out", protected)
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
         if preset is None:  # score's default: nrns for unknown-house episodes alone, else paper
@@ -50,11 +56,18 @@ def report(
             preset, mixed = default_preset(select_episodes(rdb, run=run))
             if mixed:
                 err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
-        with writing(out, "--out", "the report"):  # a write that still fails: one line
-            index = build_report(rdb, out, load_trajectory=load_trajectory, load_map=load_map,
-                                 levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
-                                 run=run, preset=preset)
-            mark_report_dir(index.parent)
+        with writing(dest, "--out", "the report"):
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            build = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".build", dir=dest.parent))
+        try:
+            with writing(dest, "--out", "the report"):  # a write that still fails: one line
+                build_report(rdb, build, load_trajectory=load_trajectory, load_map=load_map,
+                             levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
+                             run=run, preset=preset)
+            publish(build, dest, protected, option="--out")
+        finally:
+            shutil.rmtree(build, ignore_errors=True)
+    index = dest / "index.html"
     console.print(f"report written to {escape(str(index))}")
 
 

@@ -90,10 +90,15 @@ class ResultsDB:
                 if not create and not Path(database).expanduser().is_file():
                     raise DatabaseError(f"no results database at {database}; "
                                         "run `navbench all` (or pass --db / set NAVBENCH_DB)")
+                folder = Path(database).expanduser().parent
                 try:
-                    Path(database).expanduser().parent.mkdir(parents=True, exist_ok=True)
+                    folder.mkdir(parents=True, exist_ok=True)
                 except OSError as e:
-                    raise DatabaseError(f"cannot create the folder of {self.display_url}: {e}") from None
+                    blocker = next((a for a in (folder, *folder.parents)
+                                    if a.exists() and not a.is_dir()), None)
+                    why = (f"{blocker} is a file, not a folder" if blocker is not None
+                           else (e.strerror or str(e)))
+                    raise DatabaseError(f"cannot create the folder of {self.display_url}: {why}") from None
             kwargs["connect_args"] = {"timeout": 60}
         try:
             self.engine: Engine = create_engine(parsed, future=True, **kwargs)
