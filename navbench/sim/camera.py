@@ -68,9 +68,10 @@ def _texel(t, u, v, kind, base, amp, waves):
 @njit(cache=True)
 def _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                    verts, start, pheight, ptex, floor_tex, ceil_tex,
-                   tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid):
-    """Ray-cast image column ``i`` into ``rgb``, ``depth``, ``valid`` (scratch: ``(W, P)`` arrays)."""
-    H = depth.shape[0]
+                   tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                   rows, r0, r1):
+    """Ray-cast rows ``rows[r0:r1]`` of image column ``i`` into ``rgb``, ``depth``, ``valid``
+    (scratch: ``(W, P)`` arrays); every row gets the same numbers whichever others are cast."""
     P = pheight.shape[0]
     xc = (i - cx) / fx
     dx = c + xc * s  # forward (c, s) + x_c * right (s, -c)
@@ -126,7 +127,8 @@ def _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
     nk = 0
     while nk < n and tin[i, nk] <= tfull:
         nk += 1
-    for j in range(H):
+    for r in range(r0, r1):
+        j = rows[r]
         yc = (j - cy) / fy
         best = np.inf
         kind = _NONE
@@ -189,7 +191,8 @@ def _render_parallel(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
                      verts, start, pheight, ptex, floor_tex, ceil_tex,
                      tkind, tbase, tamp, twaves, rgb, depth, valid):
     """Fill ``rgb (H, W, 3) float32``, ``depth (H, W) float32``, ``valid (H, W) bool``; columns in parallel."""
-    W = depth.shape[1]
+    H, W = depth.shape
+    all_rows = np.arange(H)
     P = pheight.shape[0]
     c = math.cos(theta)
     s = math.sin(theta)
@@ -201,7 +204,8 @@ def _render_parallel(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     for i in prange(W):
         _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                        verts, start, pheight, ptex, floor_tex, ceil_tex,
-                       tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid)
+                       tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                       all_rows, 0, H)
 
 
 @njit(cache=True)
@@ -209,7 +213,8 @@ def _render_serial(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
                    verts, start, pheight, ptex, floor_tex, ceil_tex,
                    tkind, tbase, tamp, twaves, rgb, depth, valid):
     """Same as :func:`_render_parallel` on one thread (small images, busy machines)."""
-    W = depth.shape[1]
+    H, W = depth.shape
+    all_rows = np.arange(H)
     P = pheight.shape[0]
     c = math.cos(theta)
     s = math.sin(theta)
@@ -220,7 +225,45 @@ def _render_serial(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     for i in range(W):
         _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                        verts, start, pheight, ptex, floor_tex, ceil_tex,
-                       tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid)
+                       tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                       all_rows, 0, H)
+
+
+@njit(cache=True)
+def _render_pixels(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
+                   verts, start, pheight, ptex, floor_tex, ceil_tex,
+                   tkind, tbase, tamp, twaves, col_ptr, rows, rgb, depth, valid):
+    """Only rows ``rows[col_ptr[i]:col_ptr[i + 1]]`` of every column ``i`` (one thread); the other
+    pixels are left as they are (:meth:`RaycastCamera.render` with ``pixels``)."""
+    W = depth.shape[1]
+    P = pheight.shape[0]
+    c = math.cos(theta)
+    s = math.sin(theta)
+    tin = np.empty((W, P))
+    tout = np.empty((W, P))
+    hedge = np.empty((W, P), np.int64)
+    hprism = np.empty((W, P), np.int64)
+    for i in range(W):
+        if col_ptr[i] < col_ptr[i + 1]:
+            _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
+                           verts, start, pheight, ptex, floor_tex, ceil_tex,
+                           tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                           rows, col_ptr[i], col_ptr[i + 1])
+
+
+def pixel_columns(pixels, height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Flat pixel indices (row-major, ``row * width + column``) grouped by column for
+    :func:`_render_pixels`: ``col_ptr (W + 1,)`` and ``rows``, the rows of column ``i`` being
+    ``rows[col_ptr[i]:col_ptr[i + 1]]`` (sorted, duplicates dropped)."""
+    idx = np.unique(np.asarray(pixels, dtype=np.int64).reshape(-1))
+    if idx.size and (idx[0] < 0 or idx[-1] >= height * width):
+        raise ValueError(f"pixel indices must lie in [0, {height * width}), got "
+                         f"{idx[0]}..{idx[-1]}")
+    cols, rows = idx % width, idx // width
+    order = np.lexsort((rows, cols))
+    col_ptr = np.zeros(width + 1, np.int64)
+    np.cumsum(np.bincount(cols, minlength=width), out=col_ptr[1:])
+    return col_ptr, np.ascontiguousarray(rows[order])
 
 
 class RaycastCamera:
@@ -256,22 +299,47 @@ class RaycastCamera:
         self._tex = np.ascontiguousarray(pr.texture, dtype=np.int64)
         self._tables = tuple(np.ascontiguousarray(a) for a in texture_table(level))
 
-    def render(self, pose) -> Frame:
-        """Render the view from planar ``pose``; a fresh :class:`Frame` each call."""
+    def render(self, pose, pixels=None) -> Frame:
+        """Render the view from planar ``pose``; a fresh :class:`Frame` each call.
+
+        ``pixels``: flat indices (``row * width + column``) of the only pixels to cast (one
+        thread), each with exactly the numbers a full render gives it; every other pixel is
+        marked unseen: colour and depth NaN, ``valid`` False. For an estimator that reads
+        those pixels alone (:func:`navbench.track.base.observed_pixels`): the same estimates
+        for a fraction of the camera's cost.
+        """
         intr = self.intrinsics
         H, W = intr.height, intr.width
+        x, y, th = (float(v) for v in pose)
+        kind, base, amp, waves = self._tables
+        args = (x, y, th, self.camera_height, float(self.level.height),
+                float(intr.fx), float(intr.fy), float(intr.cx), float(intr.cy), self.max_range,
+                self._verts, self._start, self._height, self._tex,
+                int(self.level.floor_texture), int(self.level.ceiling_texture),
+                kind, base, amp, waves)
+        if pixels is not None:
+            col_ptr, rows = self._columns(pixels)
+            rgb = np.full((H, W, 3), np.nan, np.float32)
+            depth = np.full((H, W), np.nan, np.float32)
+            valid = np.zeros((H, W), np.bool_)
+            _render_pixels(*args, col_ptr, rows, rgb, depth, valid)
+            return Frame(rgb, depth, valid)
         rgb = np.empty((H, W, 3), np.float32)
         depth = np.empty((H, W), np.float32)
         valid = np.empty((H, W), np.bool_)
-        x, y, th = (float(v) for v in pose)
-        kind, base, amp, waves = self._tables
         kernel = _render_parallel if self.parallel else _render_serial
-        kernel(x, y, th, self.camera_height, float(self.level.height),
-                       float(intr.fx), float(intr.fy), float(intr.cx), float(intr.cy), self.max_range,
-                       self._verts, self._start, self._height, self._tex,
-                       int(self.level.floor_texture), int(self.level.ceiling_texture),
-                       kind, base, amp, waves, rgb, depth, valid)
+        kernel(*args, rgb, depth, valid)
         return Frame(rgb, depth, valid)
+
+    def _columns(self, pixels) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`pixel_columns` of ``pixels``, kept for the last array given (an estimator
+        reads the same pixels every step)."""
+        memo = getattr(self, "_columns_memo", None)
+        if memo is not None and memo[0] is pixels:
+            return memo[1]
+        cols = pixel_columns(pixels, self.intrinsics.height, self.intrinsics.width)
+        self._columns_memo = (pixels, cols)
+        return cols
 
 
 # ------------------------------------------------------------------------------ reference

@@ -184,8 +184,11 @@ class Simulator:
         self.last_control = None
         return self.observe()
 
-    def step(self, control) -> StepResult:
-        """Apply one control ``(turn, direction, speed)`` (clipped) with noise and collisions."""
+    def step(self, control, pixels=None) -> StepResult:
+        """Apply one control ``(turn, direction, speed)`` (clipped) with noise and collisions.
+
+        ``pixels``: the flat pixel indices the camera casts for the new frame
+        (:meth:`RaycastCamera.render <navbench.sim.camera.RaycastCamera.render>`); None: all."""
         u = clip_control(control, float(self.pose[2]))
         if not self.enforce_direction_limit:  # o as commanded (paper eq. for l_{t+1}); see the class doc
             u = Control(u.turn, float(wrap_angle(as_control(control).direction)), u.speed)
@@ -205,7 +208,7 @@ class Simulator:
                 self.collided = True
                 self.collision_step = self.steps
         self.steps += 1
-        return StepResult(self.pose.copy(), self.collided, self.observe(), eps)
+        return StepResult(self.pose.copy(), self.collided, self.observe(pixels), eps)
 
     def _overlaps(self, xy) -> bool:
         """Whether the agent's disc at ``xy`` overlaps a solid or the level's boundary (or lies
@@ -215,9 +218,10 @@ class Simulator:
             return True
         return self.world._near_clearance(xy) < self.world.radius
 
-    def observe(self) -> Frame | None:
-        """The camera's view from the current true pose (None without a camera)."""
-        return self.camera.render(self.pose) if self.camera is not None else None
+    def observe(self, pixels=None) -> Frame | None:
+        """The camera's view from the current true pose (None without a camera); ``pixels``:
+        only those (flat indices), the others unseen (``RaycastCamera.render``)."""
+        return self.camera.render(self.pose, pixels) if self.camera is not None else None
 
 
 def sample_free_points(level: Level, rng: np.random.Generator, count: int, clearance: float,

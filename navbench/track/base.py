@@ -36,6 +36,20 @@ class Estimator(Protocol):
         """Return the new planar pose estimate ``(3,)`` after ``control`` was executed."""
 
 
+def observed_pixels(estimator: Any) -> np.ndarray | None:
+    """The flat pixel indices (``row * width + column``) the estimator reads from the frames
+    given to ``update``, or None when it may read any pixel (the default).
+
+    An estimator may declare them with an optional method ``observed_pixels()`` (the same array
+    for the whole episode, read-only); the episode loop then has the simulator cast only those
+    pixels and marks the others unseen (NaN colour and depth, ``valid`` False), which gives the
+    same estimates for a fraction of the camera's cost. The first frame (``reset``) is always
+    whole.
+    """
+    method = getattr(estimator, "observed_pixels", None)
+    return method() if callable(method) else None
+
+
 def check_update(estimator: Any, frame: Frame) -> None:
     """The checks every camera estimator's ``update`` starts with: ``reset`` came first, and
     ``frame`` has the size of the estimator's ``intrinsics``; raises :class:`TrackingError`."""

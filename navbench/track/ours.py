@@ -342,6 +342,17 @@ class _PredictionToObservation:
             return fr
         return None
 
+    def observed_pixels(self) -> np.ndarray | None:
+        """The pixels ``update`` reads (:func:`navbench.track.base.observed_pixels`): the
+        Gauss-Newton sample of eq. 7 (:func:`gn_pixels`; the heading search reads its first
+        rows), for a map-based tracker without the health test or recovery (those read other
+        pixels and hand whole frames to the relocaliser); else None."""
+        c = self.config
+        if not self.uses_map or c.optimizer != "gauss-newton" or c.health or c.recover:
+            return None
+        H, W = self.intrinsics.shape
+        return gn_pixels(H, W, c.gn_pixels, self.seed)
+
     def _obs_intr(self):
         """``Reference.obs_intr``: the observations' intrinsics when the reference has others."""
         return None if self._ref_intr == self.intrinsics else self.intrinsics

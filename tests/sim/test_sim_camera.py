@@ -199,3 +199,43 @@ def test_house_1_matches_reference():
         assert np.array_equal(a.valid, b.valid)
         np.testing.assert_allclose(a.depth[a.valid], b.depth[b.valid], atol=1e-5, rtol=0)
         np.testing.assert_allclose(a.rgb, b.rgb, atol=1e-5, rtol=0)
+
+
+# ------------------------------------------------------------------ only the pixels an estimator reads
+
+@pytest.mark.parametrize("intr", [HALF_CAMERA, PAPER_CAMERA, Intrinsics(64, 48, 40.0, 40.0, 31.5, 23.7)])
+def test_pixels_render_is_the_full_render_there_and_unseen_elsewhere(intr):
+    """``render(pose, pixels)`` gives each listed pixel the full render's exact bits (serial and
+    parallel full renders alike) and marks every other pixel unseen (NaN, not valid)."""
+    from navbench.track.ours import gn_pixels
+
+    level = rooms()
+    H, W = intr.shape
+    rng = np.random.default_rng(3)
+    for pixels in (gn_pixels(H, W, 3000, 0),
+                   rng.choice(H * W, size=37, replace=False),          # unsorted
+                   np.array([0, W - 1, H * W - 1, (H - 1) * W, 5, 5]),  # corners, a duplicate
+                   np.arange(H * W)):                                    # every pixel
+        picked = np.zeros(H * W, bool)
+        picked[pixels] = True
+        picked = picked.reshape(H, W)
+        for pose in _free_poses(level, 3, seed=4):
+            for parallel in (False, True):
+                full = RaycastCamera(level, intr, parallel=parallel).render(pose)
+                part = RaycastCamera(level, intr, parallel=parallel).render(pose, pixels)
+                assert np.array_equal(part.depth[picked], full.depth[picked])  # inf included
+                assert np.array_equal(part.valid[picked], full.valid[picked])
+                assert np.array_equal(part.rgb[picked], full.rgb[picked])
+                assert np.isnan(part.depth[~picked]).all() and np.isnan(part.rgb[~picked]).all()
+                assert not part.valid[~picked].any()
+
+
+def test_pixel_columns_groups_by_column_and_refuses_out_of_range():
+    from navbench.sim.camera import pixel_columns
+
+    col_ptr, rows = pixel_columns([7, 0, 4, 5, 4], 2, 4)  # (row, col): (1,3) (0,0) (1,0) (1,1)
+    assert col_ptr.tolist() == [0, 2, 3, 3, 4] and rows.tolist() == [0, 1, 1, 1]
+    with pytest.raises(ValueError, match=r"\[0, 8\)"):
+        pixel_columns([8], 2, 4)
+    with pytest.raises(ValueError):
+        pixel_columns([-1], 2, 4)

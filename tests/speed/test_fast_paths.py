@@ -122,6 +122,64 @@ def test_estimators_without_frames_give_the_same_episode_without_a_camera(estima
         np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
 
 
+@pytest.mark.parametrize("camera, options", [("half", {}), ("paper", {"reference_scale": 0.5}),
+                                             ("paper", {"param": "se3"})])
+def test_ours_episode_is_the_same_when_the_camera_casts_only_its_pixels(monkeypatch, camera, options):
+    """``ours`` declares the pixels it reads (``observed_pixels``) and the simulator casts only
+    those: every pose, control and outcome of the episode equals the run with whole frames."""
+    from navbench.bench.timers import bench_tasks
+    from navbench.geometry import PAPER_CAMERA
+    from navbench.nav.episode import run_episode
+    from navbench.sim.world import Simulator
+    from navbench.track.registry import make_estimator
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+
+    intr = PAPER_CAMERA if camera == "paper" else HALF_CAMERA
+    level = small_level()
+    vm = voxelize_level(level, grid_for_level(level, shape=(40, 30, 12)))
+    occ, xs, ys = vm.occupancy_slice("band")
+    task = bench_tasks(level, vm, 1, 3)[0]
+    cast = []
+    real_render = type(Simulator(level, intrinsics=intr).camera).render
+
+    def spy(self, pose, pixels=None):
+        cast.append(pixels is not None)
+        return real_render(self, pose, pixels)
+
+    monkeypatch.setattr(type(Simulator(level, intrinsics=intr).camera), "render", spy)
+    recs = []
+    for sparse in (True, False):
+        if not sparse:
+            monkeypatch.setattr(ours._PredictionToObservation, "observed_pixels", lambda self: None)
+        cast.clear()
+        sim = Simulator(level, noise="mid", seed=5, intrinsics=intr)
+        est = make_estimator("ours", vmap=vm, intrinsics=intr, seed=5, **options)
+        recs.append(run_episode(level, occ, xs, ys, task, est, sim))
+        # the first frame is whole, every later one only the declared pixels (or all whole)
+        assert cast[0] is False and all(c is sparse for c in cast[1:]) and len(cast) > 5
+    a, b = recs
+    assert a.steps > 5 and a.end_reason == b.end_reason and a.collided == b.collided
+    for f in ("true_poses", "est_poses", "controls", "plan"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+
+
+@pytest.mark.parametrize("options", [{"health": True}, {"recover": True, "relocalizer_name": "grid"},
+                                     {"optimizer": "adam"}])
+def test_ours_reads_whole_frames_where_it_reads_other_pixels(options):
+    """The health test, recovery and Adam read other pixels than the Gauss-Newton sample: no
+    declared pixels, whole frames; ``no-map`` (the previous frame is its reference) neither."""
+    from navbench.track.base import observed_pixels
+    from navbench.track.registry import make_estimator
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+
+    level = small_level()
+    vm = voxelize_level(level, grid_for_level(level, shape=(40, 30, 12)))
+    assert observed_pixels(make_estimator("ours", vmap=vm, intrinsics=HALF_CAMERA, **options)) is None
+    assert observed_pixels(make_estimator("no-map", intrinsics=HALF_CAMERA)) is None
+    got = observed_pixels(make_estimator("ours", vmap=vm, intrinsics=HALF_CAMERA, seed=4))
+    np.testing.assert_array_equal(got, ours.gn_pixels(*HALF_CAMERA.shape, ours.TrackerConfig().gn_pixels, 4))
+
+
 @pytest.mark.parametrize("optimizer", ["gauss-newton", "adam"])
 def test_lazy_reference_tracks_bit_identically_to_the_full_render(monkeypatch, optimizer):
     """``ours`` renders only the reference pixels eq. 7 reads (LazyFrame): the same estimates,
