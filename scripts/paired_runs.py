@@ -1,11 +1,14 @@
 """Paired SPL and success differences between two sets of runs of the same tasks (issue 16).
 
     python scripts/paired_runs.py --a 35,54 --b 95        # quick-budget maps vs the paper's budget
+    python scripts/paired_runs.py --a 95 --b 1 --b-db results/gt-ceiling.db --estimators ours:gt
 
 Matches episodes of runs A and B on (level, task id, seed, noise, estimator): within A or B a
 (task, seed) counted twice keeps its last stored row, as `navbench score` does. Prints per
 estimator and noise the number of pairs, both mean SPLs and successes, and the mean of B − A SPL
 with a 95 % percentile bootstrap interval stratified by level (4000 resamples, seed 0).
+``--b-db``: runs B from another SQLite file; ``--estimators A:B``: pair estimator A of runs A
+with estimator B of runs B on the same (level, task id, seed, noise) instead.
 """
 
 from __future__ import annotations
@@ -19,10 +22,13 @@ import pandas as pd
 KEY = ["level", "task_id", "seed", "noise", "estimator"]
 
 
-def runs_frame(con, runs: list[int]) -> pd.DataFrame:
+def runs_frame(con, runs: list[int], estimator: str | None = None) -> pd.DataFrame:
     q = ("SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success FROM episodes "
          f"WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
-    return pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last").set_index(KEY)
+    df = pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last")
+    if estimator is not None:  # pair across estimators: the key without it, under a joint name
+        df = df[df.estimator == estimator]
+    return df.set_index(KEY)
 
 
 def main() -> None:
@@ -30,10 +36,21 @@ def main() -> None:
     ap.add_argument("--a", required=True, help="run ids, comma-separated")
     ap.add_argument("--b", required=True, help="run ids, comma-separated")
     ap.add_argument("--db", default="results/navbench.db", help="SQLite file")
+    ap.add_argument("--b-db", default=None, help="SQLite file of runs B [default: --db]")
+    ap.add_argument("--estimators", default=None, metavar="A:B",
+                    help="pair estimator A of runs A with estimator B of runs B")
     args = ap.parse_args()
+    ea = eb = None
+    if args.estimators is not None:
+        if args.estimators.count(":") != 1:
+            ap.error("--estimators: give A:B, e.g. ours:gt")
+        ea, eb = args.estimators.split(":")
     con = sqlite3.connect(args.db)
-    a = runs_frame(con, [int(r) for r in args.a.split(",")])
-    b = runs_frame(con, [int(r) for r in args.b.split(",")])
+    a = runs_frame(con, [int(r) for r in args.a.split(",")], ea)
+    b = runs_frame(sqlite3.connect(args.b_db) if args.b_db else con, [int(r) for r in args.b.split(",")], eb)
+    if ea is not None:
+        a = a.rename(index={ea: f"{ea}:{eb}"}, level="estimator")
+        b = b.rename(index={eb: f"{ea}:{eb}"}, level="estimator")
     j = a.add_suffix("_a").join(b.add_suffix("_b"), how="inner")
     rng = np.random.default_rng(0)
     for (est, noise), s in j.groupby(level=["estimator", "noise"], sort=True):
