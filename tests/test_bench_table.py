@@ -22,7 +22,7 @@ from navbench.bench.run import measure
 
 #: The metric keys of ``navbench bench`` before the table existed (a972844..439556e), in order.
 PINNED_METRIC_KEYS = [
-    "sim_frame_ms_half", "sim_frame_ms_paper", "sim_step_ms", "render_ms_half", "render_ms_paper",
+    "sim_frame_ms_half", "sim_frame_ms_paper", "sim_frame_ms_paper_ours", "sim_step_ms", "render_ms_half", "render_ms_paper",
     "diffrender_ms_5000", "diffrender_ms_1000", "fit_step_ms", "fit_10k_steps_s",
     "diffrender_ms_5000_cuda", "fit_step_ms_cuda", "fit_10k_steps_s_cuda", "plan_ms",
     "track_ms_ours_half", "track_ms_ours_adam_half", "track_ms_ours_gauss_newton_half",
@@ -48,7 +48,8 @@ PINNED_OTHER_KEYS = {
 }
 #: The progress labels of a quick run without CUDA, 2 workers (as before the table).
 PINNED_PROGRESS = [
-    "map", "simulator frame (half)", "simulator frame (paper)", "simulator step",
+    "map", "simulator frame (half)", "simulator frame (paper)", "simulator frame (paper, ours' pixels)",
+    "simulator step",
     "map render (half)", "map render (paper)", "differentiable render (5000 rays)",
     "differentiable render (1000 rays)", "fit-map step", "A* plan", "record a walk (half)",
     *(f"tracking {p} (half)" for p in ("ours", "ours_adam", "ours_gauss_newton", "no_map", "emission")),

@@ -341,8 +341,8 @@ def _e2e(per: str, camera: str = "half", shared: str | None = None,
 _DIFF_NOTE = ("render_rays (numba crossing search + autograd at the bracket), Delta 0.1 m, "
               "n 200, paper-camera pixels")
 _TRACK_NOTE = "estimator.update incl. the reference render, tracking-noise walk"
-_CONTROL_NOTE = ("run_episode per-step sum: controller + simulator step with its RGB-D frame + "
-                 "tracking with the map render + A* when (re)planning; mid noise")
+_CONTROL_NOTE = ("run_episode per-step sum: controller + simulator step with its RGB-D frame (only "
+                 "the pixels ours reads) + tracking with the map render + A* when (re)planning; mid noise")
 _OURS_NA = "estimator 'ours' not available"
 _FIT_CUDA = "fit-map step, 25x200 px [CUDA]"
 _DIFF_CUDA = "diff. render fwd, 5000 rays [CUDA]"
@@ -352,6 +352,11 @@ TABLE: tuple[Measurement, ...] = (
     *(Measurement(f"sim_frame_ms_{cam}", "simulator", f"sim RGB-D frame, {cam}",
                   lambda ctx, n, cam=cam: timers.time_sim_frame(ctx.level, CAMERAS[cam], n, seed=ctx.seed),
                   progress=f"simulator frame ({cam})") for cam in CAMERA_NAMES),
+    Measurement("sim_frame_ms_paper_ours", "simulator", "sim frame, paper, ours' pixels",
+                lambda ctx, n: timers.time_sim_frame(ctx.level, CAMERAS["paper"], n, seed=ctx.seed,
+                                                     pixels_of="ours"),
+                progress="simulator frame (paper, ours' pixels)",
+                note="only the 3000 pixels ours reads (observed_pixels): the frame ours gets in an episode"),
     Measurement("sim_step_ms", "simulator", "sim dynamics + collision step",
                 lambda ctx, n: timers.time_sim_step(ctx.level, n, seed=ctx.seed),
                 repeats=lambda n, _quick: 50 * n, progress="simulator step"),

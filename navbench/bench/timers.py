@@ -76,11 +76,22 @@ def _shape(vmap) -> str:
 
 # ---------------------------------------------------------------------------------- simulator
 
-def time_sim_frame(level, intrinsics: Intrinsics, repeats: int, warmup: int = 2, seed: int = 0) -> list[float]:
-    """One RGB-D frame of the simulator's ray-cast camera (see :mod:`navbench.sim.bench`)."""
+def time_sim_frame(level, intrinsics: Intrinsics, repeats: int, warmup: int = 2, seed: int = 0,
+                   pixels_of: str | None = None) -> list[float]:
+    """One RGB-D frame of the simulator's ray-cast camera (see :mod:`navbench.sim.bench`);
+    ``pixels_of="ours"``: only the pixels ``ours`` reads (its Gauss-Newton sample), the frame
+    the simulator gives it in an episode."""
     from navbench.sim.bench import time_render
 
-    return time_render(level, intrinsics, repeats=repeats, warmup=warmup, seed=seed)
+    pixels = None
+    if pixels_of == "ours":
+        from navbench.track.ours import gn_pixels
+        from navbench.track.trackconfig import TrackerConfig
+
+        pixels = gn_pixels(intrinsics.height, intrinsics.width, TrackerConfig().gn_pixels)
+    elif pixels_of is not None:
+        raise ValueError(f"pixels_of: 'ours' or None, got {pixels_of!r}")
+    return time_render(level, intrinsics, repeats=repeats, warmup=warmup, seed=seed, pixels=pixels)
 
 
 def time_sim_step(level, repeats: int, warmup: int = 10, seed: int = 0) -> list[float]:

@@ -253,6 +253,23 @@ def _check_fit(fit: Any) -> None:
         raise _Invalid(str(e).removeprefix("fit: ")) from None
 
 
+def _check_goal_localizer(overrides: Any) -> None:
+    """``[navigation] goal_localizer``: fields of :class:`navbench.localize.LocalizerConfig`
+    with their types (the image-goal stage's goal search, issue 15); ``k`` is the stage's own."""
+    if not isinstance(overrides, dict):
+        raise _Invalid(f"expected a table of localiser settings, got {overrides!r}")
+    if not overrides:
+        return
+    from navbench.localize import LocalizerConfig
+
+    if "k" in overrides:
+        raise _Invalid("k: the image-goal stage asks for two hypotheses; it is not a setting")
+    _check_table(LocalizerConfig, overrides, {})
+    for k, v in overrides.items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
+            raise _Invalid(f"{k}: must be >= 0, got {v!r}")
+
+
 def _check_episode(episode: Any) -> None:
     if not isinstance(episode, dict):
         raise _Invalid(f"expected a table, got {episode!r}")

@@ -56,6 +56,7 @@ from navbench.pipeline.checks import (  # noqa: F401 -- the limits are imported 
     _check_estimators,
     _check_episode,
     _check_fit,
+    _check_goal_localizer,
     _check_map_source,
     _check_names,
     _check_options,
@@ -100,6 +101,7 @@ class Profile:
     goal: str = "point"              # "point" (coordinates) or "image" (the goal image; issue 15)
     scoring_preset: str = "paper"    # navbench.nav.presets: paper, nrns, habitat
     online_ablation: str = "full"    # --map online*: a Table-4 ablation (stages.online.ABLATIONS)
+    goal_localizer: dict = field(default_factory=dict)  # goal = "image": LocalizerConfig overrides of the goal search
 
     def __post_init__(self):
         validate(self, _WHERE.get())
@@ -149,6 +151,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "estimator_options": ("", _check_options),  # its messages name [navigation.options.<estimator>]
     "tasks_difficulty": ("[tasks] difficulty", lambda v: v == () or _check_names(v, "difficulty", lambda: list(DIFFICULTY_BANDS))),
     "goal": ("[navigation] goal", lambda v: _check_str(v, ("point", "image"))),
+    "goal_localizer": ("[navigation] goal_localizer", _check_goal_localizer),
     "scoring_preset": ("[scoring] preset", lambda v: _check_str(v, tuple(PRESETS))),
     "online_ablation": ("[navigation] online_ablation", lambda v: _check_str(v, _online_ablations())),
 }
@@ -209,7 +212,8 @@ _SECTIONS: dict[str, dict[str, str]] = {
     "tasks": {"count": "tasks", "seed": "tasks_seed", "difficulty": "tasks_difficulty"},
     "navigation": {"estimators": "estimators", "noise": "noise", "seeds": "seeds",
                    "workers": "workers", "map": "map_source", "episode": "episode",
-                   "options": "estimator_options", "goal": "goal", "online_ablation": "online_ablation"},
+                   "options": "estimator_options", "goal": "goal", "online_ablation": "online_ablation",
+                   "goal_localizer": "goal_localizer"},
     "scoring": {"preset": "scoring_preset"},
     "conditions": {},  # navbench.sim.conditions: set into [navigation.episode] on loading
 }

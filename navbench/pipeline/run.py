@@ -154,7 +154,8 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
         from navbench.pipeline.stages.goals import ImageGoalConfig
         from navbench.pipeline.stages.inputs import with_image_goals
 
-        cfg = dataclasses.replace(cfg, image_goal=ImageGoalConfig(camera=profile.camera))
+        cfg = dataclasses.replace(cfg, image_goal=ImageGoalConfig(camera=profile.camera,
+                                                                  localizer=dict(profile.goal_localizer)))
         inputs = [with_image_goals(ctx, li, cfg.image_goal) for li in inputs]
     bar: dict[str, Callable[[int], None]] = {}
 

@@ -26,18 +26,20 @@ def bench_poses(level: Level, count: int, seed: int = 0) -> np.ndarray:
 
 
 def time_render(level: Level, intrinsics: Intrinsics, repeats: int = 50, warmup: int = 3, seed: int = 0,
-                parallel: bool | None = None, camera_height: float = CAMERA_HEIGHT) -> list[float]:
-    """Milliseconds per :meth:`RaycastCamera.render` call, over ``repeats`` free-space poses."""
+                parallel: bool | None = None, camera_height: float = CAMERA_HEIGHT,
+                pixels=None) -> list[float]:
+    """Milliseconds per :meth:`RaycastCamera.render` call, over ``repeats`` free-space poses
+    (``pixels``: only those, as for an estimator that declares the pixels it reads)."""
     from navbench.sim.camera import RaycastCamera
 
     cam = RaycastCamera(level, intrinsics, camera_height, parallel=parallel)
     poses = bench_poses(level, max(repeats, 1), seed)
     for k in range(warmup):
-        cam.render(poses[k % len(poses)])
+        cam.render(poses[k % len(poses)], pixels)
     out = []
     for k in range(repeats):
         t0 = time.perf_counter()
-        cam.render(poses[k])
+        cam.render(poses[k], pixels)
         out.append(1000.0 * (time.perf_counter() - t0))
     return out
 

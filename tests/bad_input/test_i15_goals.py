@@ -60,3 +60,37 @@ def test_navigation_goal_table_typo(project):
     text = TINY_PROFILE.replace("[navigation]\n", '[navigation]\ngoal = "img"\n')
     (project / "tiny.toml").write_text(text)
     assert_clean_error(nb("run-navigation", "--profile", "tiny.toml"), "tiny.toml", "[navigation] goal")
+
+
+@pytest.mark.parametrize("value,says", [
+    ('{ acept = 2.0 }', "acept"), ('{ k = 3 }', "k:"), ('{ accept = "high" }', "accept"),
+    ('{ max_candidates = -1 }', "max_candidates"), ('3', "table")],
+    ids=["unknown-field", "k", "type", "negative", "not-a-table"])
+def test_bad_goal_localizer_is_one_line_naming_file_and_field(project, value, says):
+    text = TINY_PROFILE.replace("[navigation]\n", f'[navigation]\ngoal = "image"\ngoal_localizer = {value}\n')
+    (project / "tiny.toml").write_text(text)
+    res = nb("run-navigation", "--profile", "tiny.toml")
+    assert_clean_error(res, "tiny.toml", "[navigation] goal_localizer", says)
+    assert not (project / "results").exists()  # refused before any stage ran
+
+
+def test_goal_localizer_reaches_the_goal_search_and_its_key():
+    """``[navigation] goal_localizer`` overrides the image-goal stage's LocalizerConfig (k stays
+    the stage's 2); none keeps the image-goal config, and so every stored key, as it was."""
+    import dataclasses
+
+    from navbench.pipeline.profiles import profile_from_dict
+    from navbench.pipeline.stages.goals import ImageGoalConfig
+    from navbench.config import config_hash
+
+    doc = {"name": "g", "navigation": {"goal": "image",
+                                       "goal_localizer": {"accept": 2.0, "max_candidates": 64}}}
+    p = profile_from_dict(doc, "g.toml")
+    cfg = ImageGoalConfig(camera=p.camera, localizer=dict(p.goal_localizer))
+    lc = cfg.localizer_config()
+    assert (lc.accept, lc.max_candidates, lc.k) == (2.0, 64, 2)
+    plain = profile_from_dict({"name": "g", "navigation": {"goal": "image"}}, "g.toml")
+    assert plain.goal_localizer == {}
+    assert config_hash(ImageGoalConfig(camera=plain.camera, localizer=dict(plain.goal_localizer))) \
+        == config_hash(ImageGoalConfig(camera=plain.camera))
+    assert config_hash(cfg) != config_hash(dataclasses.replace(cfg, localizer={}))
