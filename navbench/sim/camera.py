@@ -189,6 +189,14 @@ def _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
         rgb[j, i, 2] = b
 
 
+@njit(cache=True)
+def _scratch(W, P):
+    """Per-column scratch of the kernels: each column's hits sorted by entry (entry, exit,
+    entered edge, prism), ``(W, P)`` each."""
+    return (np.empty((W, P)), np.empty((W, P)), np.empty((W, P), np.int64),
+            np.empty((W, P), np.int64))
+
+
 @njit(cache=True, parallel=True)
 def _render_parallel(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
                      verts, start, pheight, ptex, floor_tex, ceil_tex,
@@ -196,14 +204,9 @@ def _render_parallel(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     """Fill ``rgb (H, W, 3) float32``, ``depth (H, W) float32``, ``valid (H, W) bool``; columns in parallel."""
     H, W = depth.shape
     all_rows = np.arange(H)
-    P = pheight.shape[0]
     c = math.cos(theta)
     s = math.sin(theta)
-    # per-column scratch: hits sorted by entry (entry, exit, entered edge, prism)
-    tin = np.empty((W, P))
-    tout = np.empty((W, P))
-    hedge = np.empty((W, P), np.int64)
-    hprism = np.empty((W, P), np.int64)
+    tin, tout, hedge, hprism = _scratch(W, pheight.shape[0])
     for i in prange(W):
         _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                        verts, start, pheight, ptex, floor_tex, ceil_tex,
@@ -218,13 +221,9 @@ def _render_serial(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     """Same as :func:`_render_parallel` on one thread (small images, busy machines)."""
     H, W = depth.shape
     all_rows = np.arange(H)
-    P = pheight.shape[0]
     c = math.cos(theta)
     s = math.sin(theta)
-    tin = np.empty((W, P))
-    tout = np.empty((W, P))
-    hedge = np.empty((W, P), np.int64)
-    hprism = np.empty((W, P), np.int64)
+    tin, tout, hedge, hprism = _scratch(W, pheight.shape[0])
     for i in range(W):
         _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                        verts, start, pheight, ptex, floor_tex, ceil_tex,
@@ -239,13 +238,9 @@ def _render_pixels(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     """Only rows ``rows[col_ptr[i]:col_ptr[i + 1]]`` of every column ``i`` (one thread); the other
     pixels are left as they are (:meth:`RaycastCamera.render` with ``pixels``)."""
     W = depth.shape[1]
-    P = pheight.shape[0]
     c = math.cos(theta)
     s = math.sin(theta)
-    tin = np.empty((W, P))
-    tout = np.empty((W, P))
-    hedge = np.empty((W, P), np.int64)
-    hprism = np.empty((W, P), np.int64)
+    tin, tout, hedge, hprism = _scratch(W, pheight.shape[0])
     for i in range(W):
         if col_ptr[i] < col_ptr[i + 1]:
             _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
