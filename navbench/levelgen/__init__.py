@@ -8,7 +8,9 @@ House levels (:func:`generate_level`)
     partition) into rooms of varied sizes, optionally with a corridor along the first split; one
     room at a corner may be cut away (filled, making an L-shaped house). Rooms are joined by doors
     (gaps of 0.8-1.1 m, sometimes a wider opening) along a random spanning tree of the room
-    adjacency graph plus a few extra doors for loops. Walls are 0.1 m thick. Furniture-like
+    adjacency graph plus a few extra doors for loops. The ``dense`` style (``kind="dense"``, the
+    ``dense-*`` levels) is closer to the HouseExpo floor plans of the paper: 8-12 smaller rooms,
+    always a corridor, up to two corners cut away, doors 0.8-0.95 m and few loops. Walls are 0.1 m thick. Furniture-like
     obstacles (low boxes 0.2-0.45 m, below the camera; tall boxes and pillars 0.7-1.2 m) stand
     against walls or free in rooms, never in front of a door, and always leave a gap of at least
     :data:`OBSTACLE_GAP` to other solids, so the agent can pass around every obstacle.
@@ -78,6 +80,8 @@ from navbench.levelgen.validate import (  # noqa: F401
     validate_level,
 )
 from navbench.levelgen.house import (  # noqa: F401
+    HOUSE_STYLES,
+    HouseStyle,
     generate_level,
 )
 from navbench.levelgen.maze import (  # noqa: F401
@@ -93,10 +97,11 @@ from navbench.levelgen.houseexpo import (  # noqa: F401
 
 def make_level(name: str, seed: int, kind: str = "house", size: float | None = None,
                rooms: int | None = None, obstacles: int | None = None) -> Level:
-    """Dispatch on ``kind`` (``house`` or ``maze``); ``size=None`` takes the kind's default."""
-    if kind == "house":
+    """Dispatch on ``kind`` (``house``, ``dense`` or ``maze``); ``size=None`` takes the kind's
+    default. ``dense`` is a house of the ``dense`` style (:data:`HOUSE_STYLES`)."""
+    if kind in HOUSE_STYLES:
         return generate_level(name, seed, size=DEFAULT_SIZE if size is None else size,
-                              rooms=rooms, obstacles=obstacles)
+                              rooms=rooms, obstacles=obstacles, style=kind)
     if kind == "maze":
         if rooms is not None or obstacles:
             raise ConfigError("maze levels take no --rooms or --obstacles")

@@ -49,9 +49,17 @@ BENCHMARK_LEVELS: dict[str, dict[str, Any]] = {
     "house-5": {"kind": "house", "seed": 505, "rooms": 8, "obstacles": 18},
     "house-6": {"kind": "house", "seed": 606, "rooms": 6, "obstacles": 15},
     "maze": {"kind": "maze", "seed": 7, "size": MAZE_SIZE},
+    # issue 16's HouseExpo-like set (the ``dense`` style): seeds fixed before generation, rooms
+    # and furniture drawn from the style
+    "dense-1": {"kind": "dense", "seed": 1101},
+    "dense-2": {"kind": "dense", "seed": 1202},
+    "dense-3": {"kind": "dense", "seed": 1303},
+    "dense-4": {"kind": "dense", "seed": 1404},
+    "dense-5": {"kind": "dense", "seed": 1505},
+    "dense-6": {"kind": "dense", "seed": 1606},
 }
 
-LEVEL_KINDS = ("house", "maze")
+LEVEL_KINDS = ("house", "dense", "maze")
 
 _T_CM = 10  # wall thickness in cm
 

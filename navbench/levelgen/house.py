@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -115,19 +116,63 @@ def _find(parent: list[int], i: int) -> int:
     return i
 
 
+@dataclass(frozen=True)
+class HouseStyle:
+    """The floor-plan statistics a house level is drawn from (:data:`HOUSE_STYLES`).
+
+    ``rooms``: the range the room count is drawn from when not given (inclusive);
+    ``min_room`` (cm): the smallest room side, ``None`` for the house style's 190 (up to 6 rooms)
+    or 170; ``corridor`` / ``cutaway``: the probability of a corridor along the first split and
+    of cut-away corner rooms (making the outline non-rectangular); ``cutaways``: at most this
+    many corners cut away; ``door_width`` (m): the range of door gaps; ``wide_door``: the
+    probability of a wider opening (1.4-2.2 m) where the wall allows one; ``extra_door`` /
+    ``extra_door_corridor``: the probability of a door beyond the spanning tree (a loop) between
+    two rooms / a room and the corridor.
+    """
+
+    name: str
+    rooms: tuple[int, int]
+    min_room: int | None
+    corridor: float
+    cutaway: float
+    cutaways: int
+    door_width: tuple[float, float]
+    wide_door: float
+    extra_door: float
+    extra_door_corridor: float
+
+
+#: ``house``: the committed benchmark houses (their draws are unchanged, so they regenerate byte
+#: for byte). ``dense``: closer to the HouseExpo floor plans of the paper (issue 16: "more and
+#: smaller rooms, corridors, non-rectangular outlines, doors from 0.8 m"): 8-12 rooms of at least
+#: 1.5 m, always a corridor, up to two corners cut away, doors 0.8-0.95 m with no wide openings,
+#: and few loops (a real house reaches most rooms through one door). Chosen from that description
+#: before any episode ran on such a level, not tuned.
+HOUSE_STYLES: dict[str, HouseStyle] = {
+    "house": HouseStyle("house", (4, 8), None, 0.55, 0.4, 1, DOOR_WIDTH, 0.15, 0.2, 0.6),
+    "dense": HouseStyle("dense", (8, 12), 150, 1.0, 1.0, 2, (0.8, 0.95), 0.0, 0.1, 0.4),
+}
+
+
 def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
-                   rooms: int | None, obstacles: int | None, attempt: int) -> Level:
+                   rooms: int | None, obstacles: int | None, attempt: int,
+                   style: HouseStyle = HOUSE_STYLES["house"]) -> Level:
     S = int(round(size * 100))
     long_side = S
     short_side = int(round(S * rng.uniform(0.72, 1.0) / 5.0)) * 5
     W, D = (long_side, short_side) if rng.random() < 0.5 else (short_side, long_side)
-    n_rooms = int(rng.integers(4, 9)) if rooms is None else rooms
+    n_rooms = int(rng.integers(style.rooms[0], style.rooms[1] + 1)) if rooms is None else rooms
     n_obs = (min(25, int(rng.integers(n_rooms + 4, 2 * n_rooms + 7))) if obstacles is None
              else obstacles)
-    min_room = 190 if n_rooms <= 6 else 170
-    use_corridor = bool(rng.random() < 0.55)
-    use_void = n_rooms >= 4 and bool(rng.random() < 0.4)
-    rects, corr = _bsp_rooms(rng, W, D, n_rooms + (1 if use_void else 0), use_corridor, min_room)
+    if style.min_room is not None:
+        min_room = style.min_room
+    else:
+        min_room = 190 if n_rooms <= 6 else 170
+    use_corridor = bool(rng.random() < style.corridor)
+    use_void = n_rooms >= 4 and bool(rng.random() < style.cutaway)
+    # the room count includes the corridor; cut-away corners are extra rectangles
+    n_void = style.cutaways if use_void else 0
+    rects, corr = _bsp_rooms(rng, W, D, n_rooms + n_void, use_corridor, min_room)
 
     # adjacency between rooms
     n = len(rects)
@@ -138,22 +183,24 @@ def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
             if b is not None:
                 bounds[(i, j)] = b
 
-    void = None
-    if use_void:
+    voids: list[int] = []
+    h = _T_CM // 2
+    for _ in range(n_void):
         # a corner room (touching two outer sides), not the corridor, whose removal keeps the rest
-        # connected through door-sized boundaries
-        h = _T_CM // 2
-        corners = [i for i, r in enumerate(rects) if i != corr
+        # connected through door-sized boundaries; together the cut-away rooms stay within
+        # MAX_CUTAWAY of the footprint
+        cut = sum(rects[v].area for v in voids)
+        corners = [i for i, r in enumerate(rects) if i != corr and i not in voids
                    and (r.x0 == h or r.x1 == W - h) and (r.y0 == h or r.y1 == D - h)
-                   and r.area <= MAX_CUTAWAY * W * D]
+                   and cut + r.area <= MAX_CUTAWAY * W * D]
         if corners:
-            void = corners[int(rng.integers(len(corners)))]
+            voids.append(corners[int(rng.integers(len(corners)))])
 
     margin = 30  # cm between a door and the end of its wall
-    min_door = int(DOOR_WIDTH[0] * 100)
-    live = [i for i in range(n) if i != void]
+    min_door = int(style.door_width[0] * 100)
+    live = [i for i in range(n) if i not in voids]
     eligible = [(i, j) for (i, j), b in bounds.items()
-                if void not in (i, j) and b[3] - b[2] >= min_door + 2 * margin]
+                if i not in voids and j not in voids and b[3] - b[2] >= min_door + 2 * margin]
     order = rng.permutation(len(eligible)).tolist()
     parent = list(range(n))
     chosen: list[tuple[int, int]] = []
@@ -169,7 +216,7 @@ def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
         e = eligible[k]
         if e in chosen:
             continue
-        p = 0.6 if corr in e else 0.2
+        p = style.extra_door_corridor if corr in e else style.extra_door
         if rng.random() < p:
             chosen.append(e)
     chosen.sort()
@@ -179,10 +226,10 @@ def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
     for e in chosen:
         axis, c, lo, hi = bounds[e]
         span = hi - lo - 2 * margin
-        if span >= 160 and rng.random() < 0.15:
+        if span >= 160 and rng.random() < style.wide_door:
             w = int(rng.integers(140, min(220, span) + 1))
         else:
-            w = int(rng.integers(min_door, min(int(DOOR_WIDTH[1] * 100), span) + 1))
+            w = int(rng.integers(min_door, min(int(style.door_width[1] * 100), span) + 1))
         cmin, cmax = lo + margin + w / 2, hi - margin - w / 2
         centre = int(round(rng.uniform(cmin, cmax)))
         centre = int(min(max(centre, math.ceil(cmin)), math.floor(cmax)))
@@ -216,11 +263,11 @@ def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
     # exterior fill for the cut-away room
     obs_list: list[Obstacle] = []
     exterior: list[int] = []
-    if void is not None:
-        r = rects[void].metres()
+    for v in voids:
+        r = rects[v].metres()
+        exterior.append(len(obs_list))
         obs_list.append(Obstacle(_ccw_tuple([(r[0], r[1]), (r[2], r[1]), (r[2], r[3]), (r[0], r[3])]),
                                  LEVEL_HEIGHT, 2))
-        exterior.append(0)
 
     # furniture
     keepouts = []
@@ -241,7 +288,7 @@ def _house_attempt(rng: np.random.Generator, name: str, seed: int, size: float,
                  for axis, c, g0, g1, e in doors]
     meta = {
         "generator": "navbench.levelgen.house", "version": GENERATOR_VERSION,
-        "kind": "house", "size": _q(size), "rooms_requested": rooms,
+        "kind": style.name, "size": _q(size), "rooms_requested": rooms,
         "obstacles_requested": obstacles, "attempt": attempt,
         "rooms": room_meta,
         "corridor": live.index(corr) if corr is not None else None,
@@ -381,20 +428,26 @@ def _retry(make, name: str, seed: int, max_attempts: int) -> Level:
 
 
 def generate_level(name: str, seed: int, size: float = DEFAULT_SIZE, rooms: int | None = None,
-                   obstacles: int | None = None, max_attempts: int = MAX_ATTEMPTS) -> Level:
+                   obstacles: int | None = None, max_attempts: int = MAX_ATTEMPTS,
+                   style: str = "house") -> Level:
     """A HouseExpo-like house level (see the module docstring), valid per :func:`validate_level`.
 
     ``size`` (m): the longer side of the footprint (the other is 72-100 % of it); ``rooms``: the
-    number of rooms including a corridor (4-8 drawn from the seed when None); ``obstacles``: the
-    number of furniture obstacles (drawn when None). Attempt ``k`` draws from
-    ``numpy.random.default_rng((seed, k))``; the first valid attempt is returned.
+    number of rooms including a corridor (drawn from the style's range when None); ``obstacles``:
+    the number of furniture obstacles (drawn when None); ``style``: a key of
+    :data:`HOUSE_STYLES` (``house``, the committed houses; ``dense``, more and smaller rooms).
+    Attempt ``k`` draws from ``numpy.random.default_rng((seed, k))``; the first valid attempt
+    is returned.
     """
     _check_name_seed(name, seed)
+    if style not in HOUSE_STYLES:
+        raise ConfigError(f"unknown house style {style!r}; choose one of {sorted(HOUSE_STYLES)}")
+    st = HOUSE_STYLES[style]
     if not (isinstance(size, (int, float)) and math.isfinite(size) and 5.0 <= size <= 30.0):
         raise ConfigError(f"size must be between 5 and 30 m, got {size!r}")
     if rooms is not None and not (isinstance(rooms, int) and 1 <= rooms <= 16):
         raise ConfigError(f"rooms must be an integer in [1, 16], got {rooms!r}")
     if obstacles is not None and not (isinstance(obstacles, int) and 0 <= obstacles <= 40):
         raise ConfigError(f"obstacles must be an integer in [0, 40], got {obstacles!r}")
-    return _retry(lambda rng, k: _house_attempt(rng, name, seed, float(size), rooms, obstacles, k),
+    return _retry(lambda rng, k: _house_attempt(rng, name, seed, float(size), rooms, obstacles, k, st),
                   name, seed, max_attempts)

@@ -48,8 +48,50 @@ def test_committed_level_regenerates_byte_identical(name):
 
 
 def test_benchmark_table_has_the_papers_levels():
-    assert sorted(BENCHMARK_LEVELS) == sorted([f"house-{k}" for k in range(1, 7)] + ["maze"])
+    assert sorted(BENCHMARK_LEVELS) == sorted([f"house-{k}" for k in range(1, 7)] + ["maze"]
+                                              + [f"dense-{k}" for k in range(1, 7)])
     assert len({o["seed"] for o in BENCHMARK_LEVELS.values()}) == len(BENCHMARK_LEVELS)
+
+
+@pytest.mark.parametrize("name", [n for n in BENCHMARK_LEVELS if n.startswith("dense")])
+def test_dense_levels_have_the_styles_floor_plan(committed, name):
+    """The dense style (issue 16): 8-12 rooms with a corridor among them, a non-rectangular
+    outline (cut-away corners), doors 0.8-0.95 m that pass the agent, smaller free space than
+    the house style's largest house."""
+    lv = committed[name]
+    m = lv.meta
+    assert m["kind"] == "dense"
+    assert 8 <= len(m["rooms"]) <= 12
+    assert m["corridor"] is not None
+    ext = m["exterior_obstacles"]
+    assert 1 <= len(ext) <= 2
+    cut = sum(levelgen._poly_area(np.asarray(lv.obstacles[i].polygon)) for i in ext)
+    assert 0 < cut <= levelgen.MAX_CUTAWAY * lv.width * lv.depth + 1e-6
+    for d in m["doors"]:
+        assert 0.8 - 1e-9 <= d["width"] <= 0.95 + 1e-9
+        n = np.array([1.0, 0.0]) if d["axis"] == "x" else np.array([0.0, 1.0])
+        pts = np.array(d["center"]) + np.array([-0.4, 0.0, 0.4])[:, None] * n
+        assert np.all(distance_to_solids(lv, pts) > CLEARANCE)
+    sizes = [min(r[2] - r[0], r[3] - r[1]) for i, r in enumerate(m["rooms"]) if i != m["corridor"]]
+    assert min(sizes) >= 1.5 - 1e-9  # wall centre lines; the corridor is 1.2-1.5 m wide
+
+
+def test_dense_style_draws_more_and_smaller_rooms_than_house():
+    """Over the same seeds the dense style has more rooms, a smaller mean room and more doors
+    per square metre than the house style (the statistics it was defined by)."""
+    def stats(style):
+        rooms, area = [], []
+        for seed in range(8):
+            lv = generate_level("t", seed, style=style)
+            rooms.append(len(lv.meta["rooms"]))
+            area += [(r[2] - r[0]) * (r[3] - r[1]) for r in lv.meta["rooms"]]
+        return np.mean(rooms), np.mean(area)
+    (rh, ah), (rd, ad) = stats("house"), stats("dense")
+    assert rd >= 8 > rh
+    assert ad < 0.7 * ah
+    with pytest.raises(ConfigError, match="unknown house style 'flat'"):
+        generate_level("t", 1, style="flat")
+    assert make_level("t", 3, kind="dense").meta["kind"] == "dense"
 
 
 @pytest.mark.parametrize("name", list(BENCHMARK_LEVELS))

@@ -57,11 +57,12 @@ def register(app: typer.Typer) -> None:
     def make_level(
         name: str = typer.Argument(None, help="Level name; the file is levels/NAME.json."),
         seed: int = typer.Option(None, "--seed", min=0, help="Generator seed (required unless --benchmark)."),
-        kind: str = typer.Option("house", "--kind", help="house or maze."),
+        kind: str = typer.Option("house", "--kind", help="house, dense (more and smaller rooms, "
+                                   "HouseExpo-like) or maze."),
         size: float = typer.Option(None, "--size", help="Footprint's longer side, metres "
                                    f"{default('11.4 for houses, 9.7 for the maze')}."),
         rooms: int = typer.Option(None, "--rooms", help="Number of rooms, corridor included "
-                                  f"{default('4-8 drawn from the seed')}."),
+                                  f"{default('drawn from the seed: 4-8 for house, 8-12 for dense')}."),
         obstacles: int = typer.Option(None, "--obstacles", help="Number of furniture obstacles."),
         from_houseexpo: Path = typer.Option(None, "--from-houseexpo", help="Import the outline "
                                             "of a HouseExpo JSON file instead of generating one."),
@@ -103,7 +104,7 @@ def register(app: typer.Typer) -> None:
             console.print(_summary(level, path, what))
             return
         if from_houseexpo is not None:
-            if kind != "house" or rooms is not None:
+            if kind != "house" or rooms is not None:  # (the outline is the document's)
                 raise ConfigError("--from-houseexpo takes no --kind or --rooms")
             try:
                 doc = json.loads(from_houseexpo.read_text())
