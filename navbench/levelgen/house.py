@@ -124,7 +124,9 @@ class HouseStyle:
     ``min_room`` (cm): the smallest room side, ``None`` for the house style's 190 (up to 6 rooms)
     or 170; ``corridor`` / ``cutaway``: the probability of a corridor along the first split and
     of cut-away corner rooms (making the outline non-rectangular); ``cutaways``: at most this
-    many corners cut away; ``door_width`` (m): the range of door gaps; ``wide_door``: the
+    many corners cut away (the partition draws that many extra rectangles; one left over when
+    fewer corners qualify stays a room, so a level may have one room more than drawn);
+    ``door_width`` (m): the range of door gaps; ``wide_door``: the
     probability of a wider opening (1.4-2.2 m) where the wall allows one; ``extra_door`` /
     ``extra_door_corridor``: the probability of a door beyond the spanning tree (a loop) between
     two rooms / a room and the corridor.
