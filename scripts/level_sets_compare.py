@@ -18,13 +18,16 @@ from __future__ import annotations
 import argparse
 import json
 import sqlite3
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
-KEY = ["level", "task_id", "seed", "noise", "estimator"]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from scripts.paired_runs import runs_frame  # noqa: E402  (the same rows and duplicate rule)
+
 NOISES = ["low", "mid", "high"]
 MEASURES = {"geodesic_ratio": "geo/eucl", "narrowest_passage_median": "door med (m)",
             "narrowest_passage_min": "door min (m)", "free_clearance": "clearance (m)",
@@ -34,10 +37,7 @@ MEASURES = {"geodesic_ratio": "geo/eucl", "narrowest_passage_median": "door med 
 def episodes(db: str, runs: list[int], tasks: int | None) -> pd.DataFrame:
     if not Path(db).is_file():
         raise SystemExit(f"error: {db}: no such database file")
-    con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
-    q = ("SELECT id, level, task_id, seed, noise, estimator, spl_term, success FROM episodes "
-         f"WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
-    df = pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last")
+    df = runs_frame(sqlite3.connect(f"file:{db}?mode=ro", uri=True), runs).reset_index()
     if tasks is not None:
         df = df[df.task_id < tasks]
     return df
