@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
+
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_nav_eval_prints_success_and_spl(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
-    spec = importlib.util.spec_from_file_location("nav_eval", ROOT / "scripts" / "nav_eval.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("nav_eval")
     mod.main(["house-1", "--estimators", "gt", "--noise", "none", "--tasks", "3"])
     out = capsys.readouterr().out
     assert "TRUE occupancy raster" in out and "3 tasks (task file)" in out

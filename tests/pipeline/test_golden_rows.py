@@ -4,20 +4,19 @@ scripts/golden_rows.py from commit a972844), bit for bit: keys, outcomes and eve
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 import pytest
+
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.slow
 def test_small_grid_rows_are_bit_identical_to_the_recorded_ones():
-    spec = importlib.util.spec_from_file_location("golden_rows", ROOT / "scripts" / "golden_rows.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("golden_rows")
     want = json.loads((ROOT / "tests" / "fixtures" / "golden_rows.json").read_text())
     got = mod.grid_rows(ROOT)
     assert len(got) == len(want) == 24
