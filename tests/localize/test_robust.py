@@ -98,3 +98,65 @@ def test_query_in_a_changed_room_is_found(loc):
         h = loc.localize(frame)[0]
         assert np.hypot(*(h.pose[:2] - pose[:2])) < 0.02, (pose, h)
         assert abs(math.degrees(float(wrap_angle(h.pose[2] - pose[2])))) < 1.0
+
+
+def test_exhaustive_truncated_is_the_minimum_over_every_shift():
+    """The robust search's cost at every shift written out (weights, per-channel truncation,
+    a weight-0 channel that must not count), its minimum and first argmin per point; the
+    same bits on one thread as on two."""
+    import numba
+
+    rng = np.random.default_rng(7)
+    pano = rng.random((9, 4, 32)).astype(np.float32)
+    Q = rng.random((4, 9)).astype(np.float32)
+    pano[3, :, 5:14] = Q  # point 3 sees the window exactly at shift 9
+    weight = np.array([0.3, 0.0, 1.0, 1.0], np.float32)
+    tau = np.array([0.05, 0.2, 0.1, 0.3], np.float32)
+    shift, cost = sig.exhaustive_truncated(pano, Q, weight, tau)
+    for n in range(9):
+        full = np.array([sum(weight[c] * np.minimum(np.abs(Q[c] - pano[n, c, (s + np.arange(-4, 5)) % 32]),
+                                                     tau[c]).sum() for c in range(4)) for s in range(32)])
+        assert cost[n] == pytest.approx(full.min(), rel=1e-5, abs=1e-6)
+        assert full[shift[n]] == pytest.approx(full.min(), rel=1e-5, abs=1e-6)
+    assert shift[3] == 9 and cost[3] == 0.0
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = sig.exhaustive_truncated(pano, Q, weight, tau)
+    finally:
+        numba.set_num_threads(old)
+    np.testing.assert_array_equal(one[0], shift)
+    np.testing.assert_array_equal(one[1], cost)
+
+
+def test_robust_search_takes_over_when_nothing_verifies():
+    """With ``accept`` out of reach nothing verifies: after ``robust_after`` refined candidates
+    the robust search's candidates follow (none of them a candidate already tried), and a view of
+    the changed room is still found; with ``robust_after = 0`` the search never runs."""
+    world = ExactWorld(room())
+    on = Localizer.build(world, HALF_CAMERA, CAMERA_HEIGHT, replace(CFG, accept=1.01, robust_after=2,
+                                                                   max_candidates=6))
+    off = Localizer(world, HALF_CAMERA, CAMERA_HEIGHT, replace(on.config, robust_after=0), on.bank)
+    pose = np.array([2.0, 1.2, math.pi / 2])
+    frame = RaycastCamera(changed_room(), HALF_CAMERA).render(pose)
+    h = on.localize(frame)[0]
+    assert on.last_timing["robust"] > 0 and len(on.last_refined) == 6
+    assert np.hypot(*(h.pose[:2] - pose[:2])) < 0.02
+    from navbench.localize.localizer import _same_candidate
+
+    tried = on.last_candidates[:6]
+    assert not any(_same_candidate(a, b, on.config) for i, a in enumerate(tried[:2]) for b in tried[2:])
+    off.localize(frame)
+    assert off.last_timing["robust"] == 0.0
+
+
+def test_robust_candidates_rank_a_changed_view_first():
+    """A view whose lower part new furniture fills: the robust search puts its true place and
+    heading first."""
+    world = ExactWorld(room())
+    loc = Localizer.build(world, HALF_CAMERA, CAMERA_HEIGHT, CFG)
+    pose = np.array([2.0, 1.2, math.pi / 2])
+    frame = RaycastCamera(changed_room(), HALF_CAMERA).render(pose)
+    best = loc.robust_candidates(loc.query_signature(frame), 3)[0]
+    assert np.hypot(*(best[:2] - pose[:2])) <= CFG.lattice_step
+    assert abs(math.degrees(float(wrap_angle(best[2] - pose[2])))) <= 360 / CFG.bins
