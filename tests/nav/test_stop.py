@@ -75,10 +75,12 @@ def test_lookalike_room_with_goal_room_mapped_does_not_stop(full):
 
 def test_lookalike_room_before_the_goal_room_is_seen_does_not_stop(without_a):
     goal = _view(GOAL)
-    # the map's best place for the goal image is the agent's own pose in B: a stopper that
-    # trusts the best match would stop here
-    best = without_a.localize(goal, k=1)[0]
-    assert np.hypot(*(best.pose[:2] - MIRROR[:2])) < 0.05
+    # the agent's own pose in B is one of the map's best places for the goal image (a stopper
+    # that trusts the best match could stop here); the robust search also finds the goal's own
+    # place, which this map sees only through A's door, scoring the same within 0.01
+    hyps = without_a.localize(goal, k=2)
+    assert any(np.hypot(*(h.pose[:2] - MIRROR[:2])) < 0.05 and h.score >= hyps[0].score - 0.01
+               for h in hyps)
     stopper = GoalStopper(goal)
     for _ in range(3):
         d = stopper.update(without_a, MIRROR)
