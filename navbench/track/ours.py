@@ -414,7 +414,7 @@ class _PredictionToObservation:
         H, W = self.intrinsics.shape
         return inlier_fraction(ref, frame, pose, gn_pixels(H, W, c.health_pixels, self.seed + 1),
                                c.health_tol, c.health_band, self.camera_height,
-                               photo_tol=c.health_photo_tol)
+                               photo_tol=c.health_photo_tol, tol_abs=c.health_tol_abs)
 
     def _health(self, ref: Reference, frame: Frame, est: np.ndarray, timing: dict,
                 control=None) -> np.ndarray:

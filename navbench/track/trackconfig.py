@@ -63,7 +63,11 @@ class TrackerConfig:
     # recover: on an alarm, relocalise through the relocaliser (health implied). Off by default:
     # with both off the tracker computes exactly what it did before.
     health: bool = False
-    health_tol: float = 0.05  # relative z-depth agreement of an inlier
+    health_tol: float = 0.05  # relative z-depth agreement of an inlier ...
+    # ... plus this many metres: a fitted map's own depth error (house fits: 1.4-1.8 cm mean
+    # absolute), which 5 % of a surface 0.2 m away (a robot held against furniture) is below.
+    # 0 until 2026-11-26 (CHANGED_DEFAULTS: studies stored before keep their keys)
+    health_tol_abs: float = 0.02
     health_photo_tol: float = 0.3  # colour agreement of an inlier (L1 over RGB)
     health_band: tuple[float, float] = (0.05, 1.1)  # m, heights of the points that count
     health_pixels: int = 1000  # fixed random pixels the health test reads
@@ -95,6 +99,8 @@ class TrackerConfig:
         m = self.health_min_inliers
         if not self.health_tol > 0:
             raise TrackingError(f"health_tol must be > 0, got {self.health_tol!r}")
+        if not self.health_tol_abs >= 0:
+            raise TrackingError(f"health_tol_abs must be >= 0 (m), got {self.health_tol_abs!r}")
         number = isinstance(m, (int, float)) and not isinstance(m, bool)
         if not (m == "auto" or (number and 0 <= m <= 1)):
             raise TrackingError(f"health_min_inliers must be a number within [0, 1] or 'auto', "
@@ -113,3 +119,24 @@ class TrackerConfig:
 def make_config(options: dict[str, Any], base: TrackerConfig | None = None) -> TrackerConfig:
     """Build a :class:`TrackerConfig` from keyword options; unknown names raise TrackingError."""
     return config_from_options(base or TrackerConfig(), options, "tracker")
+
+
+#: Options whose default changed after results were stored under keys that hash only the options
+#: a user gave: option -> its value before the change. The health test alone reads them.
+CHANGED_DEFAULTS: dict[str, Any] = {"health_tol_abs": 0.0}
+
+
+def keyed_options(options: dict[str, Any]) -> dict[str, Any]:
+    """An estimator's ``options`` as a cache key holds them: with the health test on (``health``
+    or ``recover``), plus the resolved value of each :data:`CHANGED_DEFAULTS` option left at a
+    default other than its old one. A result stored before a default changed keeps its key and
+    its meaning; one computed after gets the key of the options it ran with (the same as if
+    they had been given)."""
+    opts = dict(options)
+    if not (opts.get("health") is True or opts.get("recover") is True):
+        return opts
+    cfg = make_config(opts)
+    for name, before in CHANGED_DEFAULTS.items():
+        if name not in opts and getattr(cfg, name) != before:
+            opts[name] = getattr(cfg, name)
+    return opts

@@ -292,3 +292,51 @@ def test_recovery_through_the_real_localiser(level, cameras):
     assert r["detected"][0] and r["steps"][0] <= 1
     err = np.hypot(*(est[8:, :2] - poses[8:, :2]).T)
     assert err.max() < 0.05
+
+
+def test_health_tolerance_has_an_absolute_part(cameras):
+    """The health test's depth agreement is ``tol * z + tol_abs``: a reference 1.5 cm off a
+    surface about 0.2-0.5 m away fails the relative 5 % alone at the near pixels and passes
+    with the 2 cm default; 5 cm off fails either way."""
+    from navbench.geometry import Frame, camera_pose
+    from navbench.track.eq7 import prepare_reference
+    from navbench.track.health import inlier_fraction
+
+    small = HALF_CAMERA.scaled(0.1)
+    H, W = small.shape
+    depth = np.linspace(0.2, 0.5, H * W).reshape(H, W)  # a near surface, straight ahead
+    rgb = np.full((H, W, 3), 0.5)
+    frame = Frame(rgb, depth, np.ones((H, W), bool))
+    pose = np.array([1.0, 1.0, 0.0])
+    idx = np.arange(H * W)
+    for off, rel_only, with_abs in ((0.015, None, 1.0), (0.05, 0.0, 0.0)):
+        ref = prepare_reference(Frame(rgb, depth + off, np.ones((H, W), bool)), small, camera_pose(pose))
+        f_rel = inlier_fraction(ref, frame, pose, idx, band=(-10, 10))
+        f_abs = inlier_fraction(ref, frame, pose, idx, band=(-10, 10), tol_abs=0.02)
+        # relative: |off| <= 0.05 z holds where z >= off / 0.05 (hand-computed share)
+        assert f_rel == pytest.approx(np.mean(depth >= off / 0.05), abs=1e-12)
+        assert f_abs == pytest.approx(np.mean(off <= 0.05 * depth + 0.02), abs=1e-12)
+        if with_abs is not None:
+            assert f_rel < 1.0 and f_abs == with_abs
+        if rel_only is not None:
+            assert f_rel == rel_only
+
+
+def test_changed_health_default_is_keyed_and_old_studies_keep_theirs():
+    """``health_tol_abs`` changed from 0 to 0.02: a study with the health test on is keyed with
+    the value it runs with (the same key as giving it), one with the old value given keeps the
+    old meaning under its own key, and a study without the health test keeps its key."""
+    from navbench.pipeline.stages.track_eval import study_key_config
+    from navbench.track.trackconfig import keyed_options
+
+    assert keyed_options({}) == {} and keyed_options({"optimizer": "adam"}) == {"optimizer": "adam"}
+    assert keyed_options({"health": True}) == {"health": True, "health_tol_abs": 0.02}
+    assert keyed_options({"recover": True, "health_tol_abs": 0.0}) == {"recover": True, "health_tol_abs": 0.0}
+    assert keyed_options({"health": False}) == {"health": False}
+
+    def key(opts):
+        return study_key_config(TrackingStudyConfig(estimator_options={"ours": opts}))
+
+    assert key({"health": True}) == key({"health": True, "health_tol_abs": 0.02})
+    assert key({"health": True}) != key({"health": True, "health_tol_abs": 0.0})
+    assert key({})["estimator_options"] == {"ours": {}}

@@ -131,6 +131,8 @@ def health_calibration_stage(ctx: StageContext, views: Ref, map_key: str, load_m
                              cfg: HealthCalibrationConfig = HealthCalibrationConfig()) -> Ref:
     """Calibrate (or fetch) the threshold of the map ``map_key`` (``load_map() -> world
     model``) on ``views``; ``ref.meta`` is the calibration dict (``threshold`` first)."""
+    from navbench.track.trackconfig import keyed_options
+
     cal = cfg.resolved()
 
     def compute(d: Path) -> None:
@@ -151,7 +153,8 @@ def health_calibration_stage(ctx: StageContext, views: Ref, map_key: str, load_m
         render = load_map().renderer(intr, v.camera_height).render
         f = view_inlier_fractions(render, [frame_at(v, int(i)) for i in sel], v.poses[sel], intr,
                                   idx, cal, v.camera_height, align, tc, tol=tc.health_tol,
-                                  band=tc.health_band, photo_tol=tc.health_photo_tol)
+                                  band=tc.health_band, photo_tol=tc.health_photo_tol,
+                                  tol_abs=tc.health_tol_abs)
         finite = f[np.isfinite(f)]
         q = {f"q{p:g}": float(np.quantile(finite, p / 100)) for p in (0, 1, 5, 10, 50)} \
             if finite.size else {}
@@ -162,7 +165,8 @@ def health_calibration_stage(ctx: StageContext, views: Ref, map_key: str, load_m
 
     # keyed by the resolved calibration: a change of HealthCalibration's defaults recalibrates
     path, key, cached = ctx.run("health-calibration",
-                                {"calibration": asdict(cal), "tracker": tracker_options(cfg.tracker)},
+                                {"calibration": asdict(cal),
+                                 "tracker": tracker_options(keyed_options(cfg.tracker))},
                                 {"map": map_key, "views": views.key}, compute)
     meta = json.loads((path / CALIBRATION_FILE).read_text())
     return Ref("health-calibration", key, path / CALIBRATION_FILE, cached, views.name, meta)

@@ -122,9 +122,11 @@ def sequence_hash(seq) -> str:
 def sequence_key(seq_hash: str, map_key: str | None, odometry_hash: str, cfg: TrackSequenceConfig) -> str:
     """The database key of one tracking: the sequence, map, odometry, estimator, options, seed."""
     from navbench.config import config_hash
+    from navbench.track.trackconfig import keyed_options
 
     return config_hash({"sequence": seq_hash, "map": map_key, "odometry": odometry_hash,
-                        "estimator": cfg.estimator, "options": dict(cfg.options), "seed": int(cfg.seed),
+                        "estimator": cfg.estimator, "options": keyed_options(cfg.options),
+                        "seed": int(cfg.seed),
                         "max_dt": cfg.max_dt})
 
 

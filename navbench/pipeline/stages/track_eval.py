@@ -117,10 +117,14 @@ _KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze"}
 
 def study_key_config(cfg) -> dict:
     """The study config as hashed into the track-eval key: every field, except those of
-    :data:`_KEY_DEFAULTS` while at their default."""
+    :data:`_KEY_DEFAULTS` while at their default; estimator options as
+    :func:`~navbench.track.trackconfig.keyed_options` keys them."""
     from navbench.config import to_jsonable
 
+    from navbench.track.trackconfig import keyed_options
+
     d = to_jsonable(cfg)
+    d["estimator_options"] = {name: keyed_options(o) for name, o in d["estimator_options"].items()}
     for k, default in _KEY_DEFAULTS.items():
         if d.get(k) == default:
             d.pop(k, None)
