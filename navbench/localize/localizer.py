@@ -191,6 +191,7 @@ class Localizer:
         self._R = sig.half_window(intrinsics, config.bins)
         self._corr = sig.Correlator(bank.pano, self._R)
         self._wrapped: np.ndarray | None = None  # the robust search's copy of the panoramas
+        _check_robust(config)
         n = int(config.refine_stride)
         if n < 1:
             raise LocalizationError(f"localizer: refine_stride must be >= 1, got {n}")
@@ -213,6 +214,7 @@ class Localizer:
         """Render the signature bank of ``world_model`` (any :class:`~navbench.worldmodel.base.WorldModel`)
         for a camera ``intrinsics`` at ``camera_height``; :class:`LocalizationError` for a map
         with no free lattice point."""
+        _check_robust(config)  # before the bank's seconds of rendering
         return cls(world_model, intrinsics, camera_height, config,
                    build_bank(world_model, camera_height, config))
 
@@ -496,6 +498,14 @@ def _suppress(xy, heads, k, radius, max_dh):
                     alive[j] = False
         pos += 1
     return out[:m]
+
+
+def _check_robust(cfg: LocalizerConfig) -> None:
+    """One-line errors for the robust search's settings."""
+    if cfg.robust_after < 0 or not cfg.robust_tau > 0 or not cfg.robust_depth_weight >= 0:
+        raise LocalizationError(f"localizer: robust_after must be >= 0 (0: off), robust_tau > 0 and "
+                                f"robust_depth_weight >= 0; got {cfg.robust_after}, {cfg.robust_tau}, "
+                                f"{cfg.robust_depth_weight}")
 
 
 def _same_candidate(a: np.ndarray, b: np.ndarray, cfg: LocalizerConfig) -> bool:

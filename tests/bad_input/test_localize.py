@@ -39,6 +39,8 @@ def test_bad_localizer_options(project):
     assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "nope=1"), "nope")
     assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins=abc"), "bins")
     assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "bins"), "--option")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "robust_tau=0"), "robust_tau")
+    assert_clean_error(nb("localize-eval", "tiny", "--map", "true", "-o", "robust_after=-1"), "robust_after")
 
 
 def test_a_typod_level_is_an_error_not_a_generated_level(project, tmp_path):
