@@ -188,8 +188,8 @@ def exhaustive_truncated(pano: np.ndarray, Q: np.ndarray, weight: np.ndarray, ta
     the L2 correlation, a column that new furniture fills costs at most ``weight . tau``, so the
     unchanged columns decide both the place and the heading. Channels of weight 0 are skipped.
     Sums are float32, all shifts of a point at once (a column's term for every shift is one
-    contiguous SIMD loop: 4.4x the speed of a shift-by-shift loop, with early exit, on 6000
-    points). ``wrapped``: :func:`wrapped_panorama` of ``pano`` if the caller keeps one. Points
+    contiguous SIMD loop: 3.6x the speed of a shift-by-shift loop on tune-house's 5978 points,
+    the same argmins). ``wrapped``: :func:`wrapped_panorama` of ``pano`` if the caller keeps one. Points
     are spread over numba's threads; each point's sums run in one fixed order, so the result
     does not depend on the thread count."""
     Q = np.ascontiguousarray(Q, np.float32)

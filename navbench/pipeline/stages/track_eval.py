@@ -120,7 +120,6 @@ def study_key_config(cfg) -> dict:
     :data:`_KEY_DEFAULTS` while at their default; estimator options as
     :func:`~navbench.track.trackconfig.keyed_options` keys them."""
     from navbench.config import to_jsonable
-
     from navbench.track.trackconfig import keyed_options
 
     d = to_jsonable(cfg)
