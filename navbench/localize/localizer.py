@@ -76,8 +76,8 @@ was among the first 24 candidates for 57 % of the queries on the quick fit under
 correlation and its re-ranking, 97 % under the exhaustive truncated L1 with grey weight 1,
 depth 0.3, tau 0.05 (grey alone 90 %, tau 0.1: 82-90 %, depth alone 45 %: in changed rooms the
 walls' colours say more than the furniture-cut ranges); recall within 50 cm 45 -> 67.5 % (fit),
-55 -> 75 % (true map); on 100 OC4 queries 41 -> 64 % (fit). It runs only when nothing verifies (unchanged rooms: recall and median
-query time as before, a higher p90). Re-scoring near-tied hypotheses on the full frame, all
+55 -> 75 % (true map); on 100 OC4 queries 41 -> 64 % (fit). It runs only when nothing verifies (unchanged rooms, six houses: recall
+within a query of 1000, median and p90 query time within 7 % of the code before). Re-scoring near-tied hypotheses on the full frame, all
 strided pixels in the verification, 3 refinement rounds, ``geo_threshold`` 0.15 or
 ``photo_threshold`` 0.3 changed recall by at most a query or two of 40 and were not kept.
 """
