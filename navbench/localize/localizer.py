@@ -144,6 +144,11 @@ class LocalizerConfig:
     #                                rest come from the robust search (every point, every shift)
     robust_tau: float = 0.05       # robust search: truncated L1 per channel value ...
     robust_depth_weight: float = 0.3  # ... depth channels weighted this against the grey ones (1)
+    scan_radius: float = 0.45      # > 0: each robust candidate first moved by correlative scan
+    scan_deg: float = 25.0         # ... matching of the view's horizon row within this (m, deg)
+    scan_trunc: float = 0.2        # ... on the map's likelihood field truncated here (m),
+    scan_coarse: int = 2           # ... a grid this many times sparser first; with
+    scan_both: bool = True         # ... the candidate itself refined too (each counts)
 
 
 @dataclass(frozen=True)
@@ -191,6 +196,7 @@ class Localizer:
         self._R = sig.half_window(intrinsics, config.bins)
         self._corr = sig.Correlator(bank.pano, self._R)
         self._wrapped: np.ndarray | None = None  # the robust search's copy of the panoramas
+        self._scan = None  # the likelihood field of the scan matching, made when first needed
         _check_robust(config)
         n = int(config.refine_stride)
         if n < 1:
@@ -250,6 +256,13 @@ class Localizer:
                 if not queue:
                     break
             pose = queue.pop(0)
+            if robust_ms > 0 and cfg.scan_radius > 0 and pose.ndim == 1:  # a robust candidate:
+                moved = self._scan_start(frame, pose)                       # widen the basin
+                if cfg.scan_both and np.hypot(*(moved[:2] - pose[:2])) > 0.01:
+                    queue.insert(0, pose[None])  # refined next, as it is (2-D: not matched again)
+                pose = moved
+            elif pose.ndim == 2:
+                pose = pose[0]
             top = max(hyps, key=lambda h: h.score) if hyps else None
             # screening only against a verified hypothesis (changed rooms verify none: all refined)
             floor = top.score - cfg.screen_margin if top is not None and cfg.screen_margin > 0 \
@@ -259,7 +272,8 @@ class Localizer:
             if len(hyps) >= cfg.min_candidates and \
                     len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
                 break
-        self.last_candidates, self.last_refined = tried + queue, list(hyps)
+        self.last_candidates = tried + [c if c.ndim == 1 else c[0] for c in queue]
+        self.last_refined = list(hyps)
         hyps = _dedupe(sorted(hyps, key=lambda h: -h.score))
         t3 = time.perf_counter()
         self.last_timing = {"signature": 1e3 * (t1 - t0), "correlate": 1e3 * (t2 - t1),
@@ -304,6 +318,24 @@ class Localizer:
         shift, cost = sig.exhaustive_truncated(self.bank.pano, Q, weight, np.full(len(weight), cfg.robust_tau),
                                                self._wrapped)
         return candidates(shift, cost, self.bank.points, count, cfg)
+
+    def _scan_start(self, frame: Frame, pose: np.ndarray) -> np.ndarray:
+        """``pose`` moved to where the horizon row of ``frame`` best fits the map's occupancy at
+        the camera's height (:func:`navbench.localize.scan.match_scan` within ``scan_radius`` m
+        and ``scan_deg`` degrees); ``pose`` itself when the row sees too little."""
+        from navbench.localize import scan
+
+        cfg = self.config
+        if self._scan is None:
+            occ, xs, ys = self.world_model.occupancy_slice("slice", height=self.camera_height)
+            self._scan = (scan.likelihood_field(occ, xs, ys, cfg.scan_trunc), xs, ys)
+        field, xs, ys = self._scan
+        pts = scan.horizon_scan(frame, self.intrinsics, self.camera_height, cfg.feature_range,
+                                stride=cfg.refine_stride)
+        if len(pts) < 10 or len(xs) < 2 or len(ys) < 2:
+            return pose
+        return scan.match_scan(field, xs, ys, cfg.scan_trunc, pts, pose, cfg.scan_radius,
+                               max_deg=cfg.scan_deg, coarse=cfg.scan_coarse)[0]
 
     def strided(self, frame: Frame) -> Frame:
         """Every ``refine_stride``-th pixel of ``frame``: what refinement and verification see."""
@@ -501,11 +533,15 @@ def _suppress(xy, heads, k, radius, max_dh):
 
 
 def _check_robust(cfg: LocalizerConfig) -> None:
-    """One-line errors for the robust search's settings."""
+    """One-line errors for the robust search's and the scan matching's settings."""
     if cfg.robust_after < 0 or not cfg.robust_tau > 0 or not cfg.robust_depth_weight >= 0:
         raise LocalizationError(f"localizer: robust_after must be >= 0 (0: off), robust_tau > 0 and "
                                 f"robust_depth_weight >= 0; got {cfg.robust_after}, {cfg.robust_tau}, "
                                 f"{cfg.robust_depth_weight}")
+    if not (cfg.scan_radius >= 0 and cfg.scan_deg >= 0 and cfg.scan_trunc > 0 and cfg.scan_coarse >= 1):
+        raise LocalizationError(f"localizer: scan_radius and scan_deg must be >= 0 (0: off), scan_trunc > 0 "
+                                f"and scan_coarse >= 1; got {cfg.scan_radius}, {cfg.scan_deg}, "
+                                f"{cfg.scan_trunc}, {cfg.scan_coarse}")
 
 
 def _same_candidate(a: np.ndarray, b: np.ndarray, cfg: LocalizerConfig) -> bool:

@@ -132,10 +132,11 @@ def test_exhaustive_truncated_is_the_minimum_over_every_shift():
 def test_robust_search_takes_over_when_nothing_verifies():
     """With ``accept`` out of reach nothing verifies: after ``robust_after`` refined candidates
     the robust search's candidates follow (none of them a candidate already tried), and a view of
-    the changed room is still found; with ``robust_after = 0`` the search never runs."""
+    the changed room is still found; with ``robust_after = 0`` the search never runs (the scan
+    matching off: its moved starts are tested below)."""
     world = ExactWorld(room())
     on = Localizer.build(world, HALF_CAMERA, CAMERA_HEIGHT, replace(CFG, accept=1.01, robust_after=2,
-                                                                   max_candidates=6))
+                                                                   max_candidates=6, scan_radius=0.0))
     off = Localizer(world, HALF_CAMERA, CAMERA_HEIGHT, replace(on.config, robust_after=0), on.bank)
     pose = np.array([2.0, 1.2, math.pi / 2])
     frame = RaycastCamera(changed_room(), HALF_CAMERA).render(pose)
@@ -160,3 +161,60 @@ def test_robust_candidates_rank_a_changed_view_first():
     best = loc.robust_candidates(loc.query_signature(frame), 3)[0]
     assert np.hypot(*(best[:2] - pose[:2])) <= CFG.lattice_step
     assert abs(math.degrees(float(wrap_angle(best[2] - pose[2])))) <= 360 / CFG.bins
+
+
+def test_horizon_scan_lies_on_the_level_and_scan_matching_recovers_an_offset():
+    """The horizon row's points at the true pose lie on the level's walls and boxes at camera
+    height (likelihood-field cost within the 5 cm raster's half cell); from 0.3 m and 12 degrees
+    off, the correlative scan matching returns within a grid step (2.5 cm, 1 degree) of the
+    truth, coarse-to-fine as the full grid does here."""
+    from navbench.localize import scan
+
+    level = room()
+    occ, xs, ys = ExactWorld(level).occupancy_slice("slice", height=CAMERA_HEIGHT)
+    field = scan.likelihood_field(occ, xs, ys, 0.2)
+    cam = RaycastCamera(level, HALF_CAMERA)
+    for pose in (np.array([2.0, 1.5, 0.7]), np.array([1.0, 2.2, -2.0]), np.array([3.0, 0.8, 2.5])):
+        pts = scan.horizon_scan(cam.render(pose), HALF_CAMERA, CAMERA_HEIGHT)
+        assert len(pts) > 100
+        assert scan.field_cost(field, xs, ys, 0.2, pts, pose) <= 0.026
+        start = pose + np.array([0.2, -0.2, math.radians(12)])
+        assert scan.field_cost(field, xs, ys, 0.2, pts, start) > 0.05
+        for coarse in (1, 2):
+            got, cost = scan.match_scan(field, xs, ys, 0.2, pts, start, radius=0.3, max_deg=15, coarse=coarse)
+            assert np.hypot(*(got[:2] - pose[:2])) <= 0.026 * math.sqrt(2) + 1e-9, (coarse, got, pose)
+            assert abs(math.degrees(float(wrap_angle(got[2] - pose[2])))) <= 1.0 + 1e-9
+            assert cost <= 0.026
+
+
+def test_likelihood_field_by_hand():
+    """A 5-cell row of 0.1 m cells, the middle one occupied: each centre's distance to the
+    boundary, which lies half a cell from the occupied centre (the occupied centre itself: 0.05),
+    truncated at 0.12."""
+    from navbench.localize import scan
+
+    occ = np.array([[0], [0], [1], [0], [0]], bool)
+    xs, ys = np.arange(5) * 0.1, np.array([0.0, 0.1])
+    f = scan.likelihood_field(np.repeat(occ, 2, axis=1), xs, ys, 0.12)
+    np.testing.assert_allclose(f[:, 0], [0.12, 0.05, 0.05, 0.05, 0.12], atol=1e-6)
+    assert (scan.likelihood_field(np.zeros((3, 3), bool), xs[:3], ys, 0.2) == np.float32(0.2)).all()
+
+
+def test_scan_matched_starts_are_refined_beside_the_candidates():
+    """With the scan matching on, each robust candidate the matching moves is refined from the
+    moved pose and from its own (``scan_both``): the changed room's view is found either way."""
+    world = ExactWorld(room())
+    on = Localizer.build(world, HALF_CAMERA, CAMERA_HEIGHT, replace(CFG, accept=1.01, robust_after=2,
+                                                                   max_candidates=6))
+    pose = np.array([2.0, 1.2, math.pi / 2])
+    h = on.localize(RaycastCamera(changed_room(), HALF_CAMERA).render(pose))[0]
+    assert np.hypot(*(h.pose[:2] - pose[:2])) < 0.02
+    assert len(on.last_refined) == 6
+
+
+def test_bad_scan_settings_are_one_line_errors():
+    from navbench.localize.localizer import LocalizationError
+
+    for bad in ({"scan_radius": -1.0}, {"scan_trunc": 0.0}, {"scan_coarse": 0}):
+        with pytest.raises(LocalizationError, match="scan_"):
+            Localizer.build(ExactWorld(room()), HALF_CAMERA, CAMERA_HEIGHT, replace(CFG, **bad))
