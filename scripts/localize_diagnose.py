@@ -36,23 +36,12 @@ import numpy as np
 TIE = 0.005
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("level")
-    ap.add_argument("--map", default="true")
-    ap.add_argument("--profile", default=None)
-    ap.add_argument("--queries", type=int, default=100)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--changes", default=None)
-    ap.add_argument("--camera", default="half")
-    ap.add_argument("--sampling", default="uniform", help="uniform or trajectory")
-    ap.add_argument("--option", "-o", action="append", default=[])
-    ap.add_argument("--show", type=int, default=20)
-    args = ap.parse_args()
-
+def study_localizer(args):
+    """``(localizer, level, queries)`` of ``localize-eval``'s study for the parsed ``args``
+    (``level``, ``map``, ``profile``, ``queries``, ``seed``, ``changes``, ``camera``,
+    ``sampling``, ``option``): the cached map and bank, exactly the stage's queries."""
     from navbench.cli.commands.localize_eval import _localizer_config
-    from navbench.geometry import CAMERA_HEIGHT, camera_by_name, wrap_angle
-    from navbench.level import distance_to_solids
+    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
     from navbench.pipeline.profiles import load_profile
     from navbench.pipeline.run import stage_context
     from navbench.pipeline.stages import study_level, study_map
@@ -69,7 +58,28 @@ def main() -> None:
     intr = camera_by_name(cfg.camera)
     loc, _ = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, level=level_ref)
     base = load_level_ref(level_ref)
-    queries = study_queries(base, cfg, intr)  # exactly the stage's queries
+    return loc, base, study_queries(base, cfg, intr)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("level")
+    ap.add_argument("--map", default="true")
+    ap.add_argument("--profile", default=None)
+    ap.add_argument("--queries", type=int, default=100)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--changes", default=None)
+    ap.add_argument("--camera", default="half")
+    ap.add_argument("--sampling", default="uniform", help="uniform or trajectory")
+    ap.add_argument("--option", "-o", action="append", default=[])
+    ap.add_argument("--show", type=int, default=20)
+    args = ap.parse_args()
+
+    from navbench.geometry import CAMERA_HEIGHT, wrap_angle
+    from navbench.level import distance_to_solids
+
+    loc, base, queries = study_localizer(args)
+    intr = loc.intrinsics
 
     def near(pose, true):
         return (math.hypot(*(pose[:2] - true[:2])) <= 0.5
@@ -124,7 +134,7 @@ def main() -> None:
                      float(distance_to_solids(base, true[None, :2])[0]), diff, full_gap))
 
     total = sum(counts.values())
-    print(f"{args.level}, map {args.map}, {total} queries, changes {cfg.changes}: "
+    print(f"{args.level}, map {args.map}, {total} queries, changes {args.changes}: "
           f"recall 50 cm {100 * counts['found'] / total:.1f} %, median query {np.median(ms):.1f} ms CPU (p90 {np.percentile(ms, 90):.1f}), "
           f"refined per query median {np.median(nref):.0f} (max {max(nref)})")
     for k, v in counts.most_common():

@@ -32,28 +32,18 @@ def main() -> None:
     ap.add_argument("--option", "-o", action="append", default=[])
     args = ap.parse_args()
 
-    from navbench.cli.commands.localize_eval import _localizer_config
-    from navbench.geometry import CAMERA_HEIGHT, camera_by_name, wrap_angle
-    from navbench.localize import signature as sig
-    from navbench.pipeline.profiles import load_profile
-    from navbench.pipeline.run import stage_context
-    from navbench.pipeline.stages import study_level, study_map
-    from navbench.pipeline.stages.level import load_level_ref
-    from navbench.pipeline.stages.localize import LocalizeEvalConfig, load_localizer, study_queries
+    from localize_diagnose import study_localizer  # scripts/ is this script's folder
 
-    cfg = LocalizeEvalConfig(queries=args.queries, seed=args.seed, camera="half", changes=args.changes,
-                             localizer=_localizer_config(args.option)).resolved()
-    prof = load_profile(args.profile) if args.map == "fit" else None
-    ctx = stage_context()
-    level_ref = study_level(ctx, args.level, prof)
-    vmap = study_map(ctx, args.map, level_ref, prof)
-    intr = camera_by_name(cfg.camera)
-    loc, _ = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, level=level_ref)
+    from navbench.geometry import wrap_angle
+    from navbench.localize import signature as sig
+
+    args.camera, args.sampling = "half", "uniform"
+    loc, _, queries = study_localizer(args)
     c, points = loc.config, loc.bank.points
     weight = np.r_[np.full(c.rows, c.robust_depth_weight), np.ones(loc.bank.pano.shape[1] - c.rows)]
     tau = np.full(len(weight), c.robust_tau)
     ranks = []
-    for n, (true, frame, _) in enumerate(study_queries(load_level_ref(level_ref), cfg, intr)):
+    for n, (true, frame, _) in enumerate(queries):
         shift, cost = sig.exhaustive_truncated(loc.bank.pano, loc.query_signature(frame), weight, tau)
         d = np.hypot(points[:, 0] - true[0], points[:, 1] - true[1])
         tp = int(np.argmin(d))
@@ -66,7 +56,7 @@ def main() -> None:
               f"{len(region)} within {args.radius} m (their best {100 * d[order[0]]:.0f} cm from it), "
               f"heading error {head:.1f} deg, rank {int((cost < cost[tp]).sum())} of {len(points)} overall")
     r = np.array(ranks)
-    print(f"{args.level}, map {args.map}, {len(r)} queries, changes {cfg.changes}: nearest point best of "
+    print(f"{args.level}, map {args.map}, {len(r)} queries, changes {args.changes}: nearest point best of "
           f"its neighbourhood {np.mean(r == 0):.0%}, among its 3 best {np.mean(r <= 2):.0%}, 5 best {np.mean(r <= 4):.0%}")
 
 
