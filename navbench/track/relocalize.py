@@ -181,6 +181,23 @@ def _build_grid(vmap, intrinsics: Intrinsics, camera_height: float, align: Calla
 RELOCALIZERS: dict[str, Callable] = {"localize": _build_localizer, "grid": _build_grid}
 
 
+def relocalizer_settings(options: dict) -> dict | None:
+    """What a cache key must hold of the relocaliser an estimator with keyword ``options`` would
+    build: ``None`` without ``recover``; else its name and, for ``localize``, every field of the
+    :class:`~navbench.localize.LocalizerConfig` it builds with (its defaults change as the
+    localiser improves, and a study that recovers through it changes with them)."""
+    if options.get("recover") is not True:
+        return None
+    name = options.get("relocalizer_name", "localize")
+    if name != "localize":
+        return {"name": name}
+    from dataclasses import asdict
+
+    from navbench.localize import LocalizerConfig
+
+    return {"name": name, "config": asdict(LocalizerConfig())}
+
+
 def check_relocalizer(name: str) -> None:
     """Raise :class:`TrackingError` now (before any tracking) when ``name`` is not a known
     relocaliser."""

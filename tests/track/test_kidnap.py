@@ -340,3 +340,21 @@ def test_changed_health_default_is_keyed_and_old_studies_keep_theirs():
     assert key({"health": True}) == key({"health": True, "health_tol_abs": 0.02})
     assert key({"health": True}) != key({"health": True, "health_tol_abs": 0.0})
     assert key({})["estimator_options"] == {"ours": {}}
+
+
+def test_recovering_studies_are_keyed_by_the_relocalizers_settings():
+    """A study that recovers through ``navbench.localize`` is keyed by the LocalizerConfig it
+    builds with (a changed localiser default gives a new key); the ``grid`` relocaliser by its
+    name; a study without recovery keeps its key."""
+    from dataclasses import asdict
+
+    from navbench.localize import LocalizerConfig
+    from navbench.pipeline.stages.track_eval import study_key_config
+    from navbench.track.relocalize import relocalizer_settings
+
+    assert relocalizer_settings({"health": True}) is None
+    assert relocalizer_settings({"recover": True, "relocalizer_name": "grid"}) == {"name": "grid"}
+    assert relocalizer_settings({"recover": True}) == {"name": "localize", "config": asdict(LocalizerConfig())}
+    key = study_key_config(TrackingStudyConfig(estimator_options={"ours": {"recover": True}}))
+    assert key["relocalizers"]["ours"]["config"] == asdict(LocalizerConfig())
+    assert "relocalizers" not in study_key_config(TrackingStudyConfig(estimator_options={"ours": {"health": True}}))

@@ -122,12 +122,15 @@ def sequence_hash(seq) -> str:
 def sequence_key(seq_hash: str, map_key: str | None, odometry_hash: str, cfg: TrackSequenceConfig) -> str:
     """The database key of one tracking: the sequence, map, odometry, estimator, options, seed."""
     from navbench.config import config_hash
+    from navbench.track.relocalize import relocalizer_settings
     from navbench.track.trackconfig import keyed_options
 
-    return config_hash({"sequence": seq_hash, "map": map_key, "odometry": odometry_hash,
-                        "estimator": cfg.estimator, "options": keyed_options(cfg.options),
-                        "seed": int(cfg.seed),
-                        "max_dt": cfg.max_dt})
+    d = {"sequence": seq_hash, "map": map_key, "odometry": odometry_hash, "estimator": cfg.estimator,
+         "options": keyed_options(cfg.options), "seed": int(cfg.seed), "max_dt": cfg.max_dt}
+    reloc = relocalizer_settings(dict(cfg.options))
+    if reloc:  # recovery: the relocaliser's settings (since 2026-11-26)
+        d["relocalizer"] = reloc
+    return config_hash(d)
 
 
 @dataclass

@@ -118,12 +118,17 @@ _KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze"}
 def study_key_config(cfg) -> dict:
     """The study config as hashed into the track-eval key: every field, except those of
     :data:`_KEY_DEFAULTS` while at their default; estimator options as
-    :func:`~navbench.track.trackconfig.keyed_options` keys them."""
+    :func:`~navbench.track.trackconfig.keyed_options` keys them; with recovery on, the
+    relocalisers' settings (:func:`~navbench.track.relocalize.relocalizer_settings`)."""
     from navbench.config import to_jsonable
+    from navbench.track.relocalize import relocalizer_settings
     from navbench.track.trackconfig import keyed_options
 
     d = to_jsonable(cfg)
+    reloc = {name: relocalizer_settings(o) for name, o in d["estimator_options"].items()}
     d["estimator_options"] = {name: keyed_options(o) for name, o in d["estimator_options"].items()}
+    if any(reloc.values()):  # recovery: the relocaliser's settings (since 2026-11-26)
+        d["relocalizers"] = {k: v for k, v in reloc.items() if v}
     for k, default in _KEY_DEFAULTS.items():
         if d.get(k) == default:
             d.pop(k, None)
