@@ -144,7 +144,6 @@ class LocalizerConfig:
     screen_loose: float = 3.0      # ... its score taken with the inlier tolerances times this
     refine_stride: int = 2         # refine and verify on every n-th pixel (renders n^2 cheaper)
     gn_pixels: int = 800
-    verify_pixels: int = 800       # pixels verification scores (0: every refine_stride-th pixel)
     inlier_abs: float = 0.05       # m: depth agreement tolerance abs + rel * depth
     inlier_rel: float = 0.03
     inlier_colour: float = 0.1     # mean |RGB difference| tolerance of an inlier (colour units)
@@ -219,9 +218,6 @@ class Localizer:
         self._renderer = world_model.renderer(self._rintr, camera_height)
         H, W = self._rintr.shape
         self._idx = pixel_table(H, W, rows=1, cols=min(config.gn_pixels, H * W), seed=0)[0]
-        self._vidx = self._idx if config.verify_pixels == config.gn_pixels else (
-            np.arange(H * W) if config.verify_pixels <= 0 or config.verify_pixels >= H * W
-            else pixel_table(H, W, rows=1, cols=config.verify_pixels, seed=0)[0])
         self._gn = replace(TrackerConfig(), prior_sigma=(10.0, 10.0), yaw_search_deg=0.0,
                           gn_pixels=len(self._idx), geo_threshold=float(config.geo_threshold),
                           photo_threshold=float(config.photo_threshold))
@@ -253,7 +249,8 @@ class Localizer:
                                 cfg.depth_feature, cfg.feature_range)
         t1 = time.perf_counter()
         budget = max(k, cfg.max_candidates)
-        queue = self.coarse_candidates(Q, budget)
+        # (pose, scan-match it first?): the fast path's candidates are refined as they are
+        queue = [(c, False) for c in self.coarse_candidates(Q, budget)]
         t2 = time.perf_counter()
         small = self.strided(frame)
         hyps: list[Hypothesis] = []
@@ -262,19 +259,17 @@ class Localizer:
         while queue and len(hyps) < budget:  # coarse order; stop once k are verified
             if 0 < cfg.robust_after == len(hyps) and not any(h.confidence >= cfg.accept for h in hyps):
                 tr = time.perf_counter()  # nothing verified: a changed room? the robust search
-                queue = [c for c in self.robust_candidates(Q, budget)
+                queue = [(c, cfg.scan_radius > 0) for c in self.robust_candidates(Q, budget)
                          if not any(_same_candidate(c, t, cfg) for t in tried)]
                 robust_ms = 1e3 * (time.perf_counter() - tr)
                 if not queue:
                     break
-            pose = queue.pop(0)
-            if robust_ms > 0 and cfg.scan_radius > 0 and pose.ndim == 1:  # a robust candidate:
-                moved = self._scan_start(frame, pose)                       # widen the basin
+            pose, match = queue.pop(0)
+            if match:  # a robust candidate: widen the basin
+                moved = self._scan_start(frame, pose)
                 if cfg.scan_both and np.hypot(*(moved[:2] - pose[:2])) > 0.01:
-                    queue.insert(0, pose[None])  # refined next, as it is (2-D: not matched again)
+                    queue.insert(0, (pose, False))  # refined next, as it is
                 pose = moved
-            elif pose.ndim == 2:
-                pose = pose[0]
             top = max(hyps, key=lambda h: h.score) if hyps else None
             # screening only against a verified hypothesis (changed rooms verify none: all refined)
             floor = top.score - cfg.screen_margin if top is not None and cfg.screen_margin > 0 \
@@ -284,7 +279,7 @@ class Localizer:
             if len(hyps) >= cfg.min_candidates and \
                     len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
                 break
-        self.last_candidates = tried + [c if c.ndim == 1 else c[0] for c in queue]
+        self.last_candidates = tried + [c for c, _ in queue]
         self.last_refined = list(hyps)
         hyps = _dedupe(sorted(hyps, key=lambda h: -h.score))
         t3 = time.perf_counter()
@@ -409,7 +404,7 @@ class Localizer:
         colour difference (equally consistent poses rank by photometric fit). ``loose``
         scales the tolerances (screening: a coarse pose is up to ~9 cm and 1 degree off)."""
         cfg = self.config
-        idx = self._vidx
+        idx = self._idx
         dq = np.asarray(frame.depth).reshape(-1)[idx]
         vq = np.asarray(frame.valid).reshape(-1)[idx]
         dp = np.asarray(pred.depth).reshape(-1)[idx]

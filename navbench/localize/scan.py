@@ -4,7 +4,7 @@ The camera is planar-mounted, so the pixels of the image row through the princip
 (``y_c = 0``) see the world at the camera's height: a 2D range scan. Its points, moved by a
 planar pose, should land on the map's occupied cells *at that height* (the world model's
 ``occupancy_slice("slice", height=camera_height)``). A **likelihood field**
-(:func:`likelihood_field`: the distance to the nearest occupied cell, truncated at ``trunc``) scores
+(:func:`likelihood_field`: the distance to the free/occupied boundary, truncated at ``trunc``) scores
 a pose by the mean truncated distance of the scan's points (:func:`field_cost`); furniture that was
 added, moved or removed costs each point at most ``trunc``. :func:`match_scan` evaluates every pose
 of a local grid around a start (positions every ``step`` m within ``radius``, headings every
