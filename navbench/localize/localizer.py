@@ -160,6 +160,10 @@ class LocalizerConfig:
     scan_trunc: float = 0.2        # ... on the map's likelihood field truncated here (m),
     scan_coarse: int = 2           # ... a grid this many times sparser first; with
     scan_both: bool = True         # ... the candidate itself refined too (each counts)
+    reverify: float = 0.01         # > 0: a refined pose the last round moved more than this (m, or
+    #                                rad in heading) is rendered and verified again, so that every
+    #                                hypothesis's score is its own pose's; 0: the last render's score
+    #                                stands for it (before 2026-11-26: up to 0.6 m away in changed rooms)
 
 
 @dataclass(frozen=True)
@@ -367,8 +371,9 @@ class Localizer:
         """Eq. 7 alignment of ``frame`` (the query's every ``refine_stride``-th pixel) against
         the map's renders from ``pose`` on, verified. Each round's render is verified (the
         pose it was rendered at scores that); the last round's refined pose is reported with
-        the last render's score (within ~1 cm of it) unless an earlier rendered pose scored
-        better: then that one (a refinement that a changed room pulled away is undone). A
+        the last render's score when that round moved it by at most ``reverify`` (m, rad), else
+        with its own render's score, unless an earlier rendered pose scored better: then that
+        one (a refinement that a changed room pulled away is undone). A
         candidate scoring below ``floor`` at its own pose is returned there unrefined."""
         cfg = self.config
         pose = np.asarray(pose, np.float64)
@@ -386,11 +391,17 @@ class Localizer:
             new = align_planar(ref, frame, pose, self._gn, self._idx, self.camera_height)
             if not np.all(np.isfinite(new)):
                 break
-            last = (conf, score, new)
+            last = (conf, score, new, pose)  # new pose, the score of the render at pose
             pose = new
-        else:  # the last refined pose stands for the last render's score if that was best
+        else:  # the last refined pose: verified again if the last round moved it, else the
+            #     last render's score stands for it (within reverify of where it was taken)
+            prev = last[3]
+            moved = max(float(np.hypot(*(pose[:2] - prev[:2]))), abs(float(wrap_angle(pose[2] - prev[2]))))
+            if cfg.reverify > 0 and moved > cfg.reverify:
+                conf, score = self._verify(frame, self._renderer.render(pose))
+                last = (conf, score, pose, pose)
             if best[1] <= last[1]:
-                best = last
+                best = last[:3]
         conf, score, pose = best
         pose = pose.copy()
         pose[2] = float(wrap_angle(pose[2]))
@@ -545,6 +556,8 @@ def _check_robust(cfg: LocalizerConfig) -> None:
         raise LocalizationError(f"localizer: robust_after must be >= 0 (0: off), robust_tau > 0 and "
                                 f"robust_depth_weight >= 0; got {cfg.robust_after}, {cfg.robust_tau}, "
                                 f"{cfg.robust_depth_weight}")
+    if not cfg.reverify >= 0:
+        raise LocalizationError(f"localizer: reverify must be >= 0 (0: off), got {cfg.reverify}")
     if not (cfg.scan_radius >= 0 and cfg.scan_deg >= 0 and cfg.scan_trunc > 0 and cfg.scan_coarse >= 1):
         raise LocalizationError(f"localizer: scan_radius and scan_deg must be >= 0 (0: off), scan_trunc > 0 "
                                 f"and scan_coarse >= 1; got {cfg.scan_radius}, {cfg.scan_deg}, "

@@ -218,3 +218,33 @@ def test_bad_scan_settings_are_one_line_errors():
     for bad in ({"scan_radius": -1.0}, {"scan_trunc": 0.0}, {"scan_coarse": 0}):
         with pytest.raises(LocalizationError, match="scan_"):
             Localizer.build(ExactWorld(room()), HALF_CAMERA, CAMERA_HEIGHT, replace(CFG, **bad))
+    with pytest.raises(LocalizationError, match="reverify must be >= 0"):
+        Localizer.build(ExactWorld(room()), HALF_CAMERA, CAMERA_HEIGHT, replace(CFG, reverify=-1.0))
+
+
+def test_a_refined_pose_is_scored_by_its_own_render(loc, monkeypatch):
+    """A last Gauss-Newton round that jumps 0.5 m (what a changed room's furniture can do) does
+    not carry the score of the render it started from: the jumped pose is rendered and verified
+    again (``reverify``), and the better of the two is kept. With ``reverify = 0`` (the
+    behaviour before 2026-11-26) the jumped pose was reported with its start's score."""
+    import navbench.localize.localizer as L
+
+    calls = []
+
+    def stay_then_jump(ref, fr, p, *a):  # round 1 converged, round 2 jumps 0.5 m
+        calls.append(1)
+        return np.asarray(p, np.float64) + ([0.0, 0.0, 0.0] if len(calls) % 2 else [0.5, 0.0, 0.0])
+
+    pose = np.array([2.0, 1.2, 0.4])
+    frame = RaycastCamera(room(), HALF_CAMERA).render(pose)
+    monkeypatch.setattr(L, "align_planar", stay_then_jump)
+    h = loc.refine(frame, pose)
+    np.testing.assert_allclose(h.pose, pose, atol=1e-12)  # the jump scored worse and was undone
+    assert h.score == loc.verify_at(frame, h.pose).score > loc.verify_at(frame, pose + [0.5, 0, 0]).score
+    for start in (pose + [0.3, 0.2, 0.1], pose + [-0.6, 0.1, -0.3]):
+        h = loc.refine(frame, start)
+        assert h.score == loc.verify_at(frame, h.pose).score
+    old = Localizer(loc.world_model, loc.intrinsics, loc.camera_height, replace(CFG, reverify=0.0), loc.bank)
+    h = old.refine(frame, pose)
+    np.testing.assert_allclose(h.pose, pose + [0.5, 0.0, 0.0], atol=1e-12)
+    assert h.score == loc.verify_at(frame, pose).score > loc.verify_at(frame, h.pose).score
