@@ -152,10 +152,17 @@ def main() -> None:
         for a, b in zip((0.0, 0.5, 1.0, 2.0), (0.5, 1.0, 2.0, np.inf))))
     print(f"  failures the true pose wins on every pixel of the full frame: "
           f"{sum(r[-1] > 0 for r in rows)} of {len(rows)}")
+    amb = [r for r in rows if r[1] == "ambiguity"]
+    if amb:  # does the wrong place explain more of the view than the true one (inlier share)?
+        print(f"  ambiguities whose chosen pose has more inliers than the true pose: "
+              f"{sum(r[3].confidence > r[4].confidence for r in amb)} of {len(amb)} "
+              f"(true pose's inlier share median {np.median([r[4].confidence for r in amb]):.2f}, "
+              f"chosen's {np.median([r[3].confidence for r in amb]):.2f})")
     for n, cls, true, h, at_true, from_true, rank, nr, clear, diff, gap in rows[: args.show]:
         print(f"q{n:<4d} {cls:24s} true ({true[0]:6.2f},{true[1]:6.2f},{math.degrees(true[2]):7.1f}) "
               f"chosen ({h.pose[0]:6.2f},{h.pose[1]:6.2f},{math.degrees(h.pose[2]):7.1f}) "
               f"score chosen {h.score:.3f} (conf {h.confidence:.2f}) | true as-is {at_true.score:.3f} "
+              f"(conf {at_true.confidence:.2f}) "
               f"refined {from_true.score:.3f} (moved {100 * math.hypot(*(from_true.pose[:2] - true[:2])):.1f} cm) "
               f"| near-true rank {rank} of {nr} refined | wall {clear:.2f} m | diff {100 * diff:.0f} % "
               f"| full-frame true - chosen {gap:+.3f}")

@@ -275,6 +275,14 @@ def _goal_score(match, cfg: ImageNavConfig):
     return lambda p: c * np.exp(-np.sum((np.asarray(p) - g) ** 2, axis=1) / s2)
 
 
+def loop_localizer_config(cfg: "ImageNavConfig"):
+    """The :class:`~navbench.localize.LocalizerConfig` the loop matches the goal with on the seen
+    map: the localiser's defaults on the loop's ``lattice_step`` (the cell key holds all of it)."""
+    from navbench.localize import LocalizerConfig
+
+    return LocalizerConfig(lattice_step=cfg.lattice_step)
+
+
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),
                               intrinsics: Intrinsics = HALF_CAMERA, full_map=None,
                               oracle_target=None, simulator=None, mapping: str = "perfect",
@@ -296,7 +304,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     import time
     from dataclasses import replace
 
-    from navbench.localize import LocalizationError, Localizer, LocalizerConfig
+    from navbench.localize import LocalizationError, Localizer
     from navbench.sim.dynamics import Control, clip_control
     from navbench.sim.world import Simulator
     from navbench.worldmodel.grid import voxelize_level
@@ -310,7 +318,7 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
     ecfg = cfg.explorer if cfg.exploration_score else replace(cfg.explorer, explore_weight=0.0, near_weight=0.0)
     explorer = Explorer(ecfg)
     stopper = GoalStopper(goal, cfg.stop)
-    loc_cfg = LocalizerConfig(lattice_step=cfg.lattice_step)
+    loc_cfg = loop_localizer_config(cfg)
     frame = sim.reset(np.asarray(start, np.float64))
     pose = np.asarray(sim.pose, np.float64).copy()
     if tracker is not None:

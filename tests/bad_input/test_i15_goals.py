@@ -76,7 +76,8 @@ def test_bad_goal_localizer_is_one_line_naming_file_and_field(project, value, sa
 
 def test_goal_localizer_reaches_the_goal_search_and_its_key():
     """``[navigation] goal_localizer`` overrides the image-goal stage's LocalizerConfig (k stays
-    the stage's 2); none keeps the image-goal config, and so every stored key, as it was."""
+    the stage's 2); none keeps the image-goal config as it was (the keys also hold the resolved
+    localiser since 2026-11-26: tests/pipeline/test_image_goals.py)."""
     import dataclasses
 
     from navbench.pipeline.profiles import profile_from_dict

@@ -101,6 +101,39 @@ def test_image_and_point_goal_cells_have_different_keys_and_point_keys_are_today
     assert point.key == today and image.key != point.key and image.condition_key != point.condition_key
 
 
+def test_image_goal_keys_hold_every_field_of_the_goal_search_localiser(image_run, monkeypatch):
+    """A goal is searched with the localiser's resolved config, so the cell key and the
+    image-goals artifact key hold every one of its fields: a changed localiser default (the
+    robust search, ``reverify``) gives new keys instead of serving goals found by the old one."""
+    from dataclasses import asdict, replace
+
+    from navbench.localize import LocalizerConfig
+    from navbench.pipeline.stages.context import Ref
+    from navbench.pipeline.stages.goals import ImageGoalConfig
+    from navbench.pipeline.stages.grid import NavigationConfig, goal_key_part, make_cells
+    from navbench.pipeline.stages.inputs import LevelInputs
+
+    cfg = NavigationConfig(estimators=("ours",), goal="image", image_goal=ImageGoalConfig())
+    assert goal_key_part(cfg)["goal"]["localizer_resolved"] == asdict(replace(LocalizerConfig(), k=2))
+    li = LevelInputs(Ref("make-level", "a" * 64, "l"), Ref("fit-map", "b" * 64, "m"), Ref("sample-tasks", "c" * 64, "t"))
+    before = make_cells([li], cfg)[0]
+    from navbench.pipeline.run import stage_context
+    from navbench.pipeline.stages.inputs import with_image_goals
+
+    root, result = image_run
+    stored = result.inputs[0]
+    ctx = stage_context()
+    same = with_image_goals(ctx, replace(stored, goals=None), ImageGoalConfig(camera="half"))
+    assert same.goals.key == stored.goals.key and same.goals.cached
+    # a localiser whose default changed: the same profile, other keys, goals searched anew
+    changed = replace(LocalizerConfig(), reverify=0.0)
+    monkeypatch.setattr(ImageGoalConfig, "localizer_config", lambda self: replace(changed, k=2, **self.localizer))
+    after = make_cells([li], cfg)[0]
+    assert after.key != before.key and after.condition_key != before.condition_key
+    again = with_image_goals(ctx, replace(stored, goals=None), ImageGoalConfig(camera="half"))
+    assert again.goals.key != stored.goals.key and not again.goals.cached
+
+
 def test_task_config_key_without_difficulty_is_todays():
     from navbench.errors import ConfigError
     from navbench.pipeline.stages.tasks import TasksConfig

@@ -163,6 +163,15 @@ def test_online_cells_are_keyed_apart_and_other_keys_unchanged():
                              online=OnlineConfig(mapping="fused"))
     f = make_cells([li], fused)[0]
     assert f.key != o.key and f.condition_key != o.condition_key
+    # every field of the localiser the loop matches the goal with (its defaults change with it)
+    from dataclasses import asdict
+
+    from navbench.localize import LocalizerConfig
+    from navbench.nav.imagenav import ImageNavConfig
+
+    assert online_key_part(online)["online"]["localizer"] == \
+        asdict(LocalizerConfig(lattice_step=ImageNavConfig().lattice_step))
+    assert "localizer_resolved" not in make_cells.__globals__["goal_key_part"](online)["goal"]
 
 
 def test_online_profile_rules():
@@ -346,7 +355,7 @@ def test_ablations_are_keyed_apart_and_the_full_model_keeps_its_keys():
                                 online=OnlineConfig(ablation=ablation))
 
     full = online_key_part(cfg("full"))["online"]
-    assert set(full) == {"mapping", "loop", "version"} and full["mapping"] == "perfect"
+    assert set(full) == {"mapping", "loop", "version", "localizer"} and full["mapping"] == "perfect"
     keys = {a: make_cells([li], cfg(a))[0].key for a in ABLATIONS}
     assert len(set(keys.values())) == len(ABLATIONS)
     assert online_key_part(cfg("no-goal"))["online"]["loop"]["goal_score"] is False

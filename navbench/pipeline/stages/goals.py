@@ -49,6 +49,15 @@ class ImageGoalConfig:
             raise ConfigError(f"image goals: unknown localizer field(s) {bad}; known: {sorted(names)}")
         return dataclasses.replace(LocalizerConfig(), k=2, **self.localizer)
 
+    def localizer_settings(self) -> dict:
+        """Every field of :meth:`localizer_config` as plain JSON: what the goals' keys hold of
+        the localiser (its defaults change as it improves, and the goals found with them)."""
+        from dataclasses import asdict
+
+        from navbench.config import to_jsonable
+
+        return to_jsonable(asdict(self.localizer_config()))
+
     def rules(self):
         from navbench.nav.imagegoal import GoalRules
 
@@ -94,7 +103,10 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
             update(i + 1)
         (d / GOALS_FILE).write_text(json.dumps(out, indent=1, sort_keys=True))
 
-    inputs = {"level": level.key, "map": vmap.key, "tasks": tasks.key}
+    from navbench.config import config_hash
+
+    inputs = {"level": level.key, "map": vmap.key, "tasks": tasks.key,
+              "localizer": config_hash(cfg.localizer_settings())}  # the resolved localiser, since 2026-11-26
     path, key, cached = ctx.run("image-goals", cfg, inputs, compute)
     return Ref("image-goals", key, path / GOALS_FILE, cached, level.name)
 

@@ -122,14 +122,22 @@ def resolved_episode_config(cfg: NavigationConfig) -> dict:
 
 def goal_key_part(cfg: NavigationConfig) -> dict:
     """What the goal adds to the cell and condition keys: nothing for point goals (so their keys
-    stay those stored before image goals existed), else ``{"goal": {"kind": ..., config}}``."""
+    stay those stored before image goals existed), else ``{"goal": {"kind": ..., config}}`` and,
+    for a goal localised in a given map, every field of the localiser that searched it
+    (``localizer_resolved``, since 2026-11-26: before, only the profile's overrides were keyed,
+    and a changed localiser default left stored goals under their old keys). The unknown-house
+    loop's localiser is keyed by :func:`~navbench.pipeline.stages.online.online_key_part`."""
     if cfg.goal == "point":
         return {}
     if cfg.goal != "image":
         raise ConfigError(f"--goal: expected point or image, got {cfg.goal!r}")
     from navbench.pipeline.stages.goals import ImageGoalConfig
 
-    return {"goal": {"kind": "image", **to_jsonable(cfg.image_goal or ImageGoalConfig())}}
+    goal = cfg.image_goal or ImageGoalConfig()
+    part = {"kind": "image", **to_jsonable(goal)}
+    if getattr(cfg, "online", None) is None:  # the goal search's localiser, every field (its
+        part["localizer_resolved"] = goal.localizer_settings()  # defaults change as it improves)
+    return {"goal": part}
 
 
 def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
