@@ -4,7 +4,7 @@
         --changes OC4 --queries 100
 
 For each ``localize-eval`` query (same draw: ``--seed``, ``--changes``) it runs the robust search
-(:func:`navbench.localize.signature.exhaustive_truncated` with the localiser's settings) over every
+(:meth:`navbench.localize.Localizer.robust_costs`, the localiser's settings) over every
 lattice point and prints where the lattice point nearest the true pose ranks among the points
 within ``--radius`` m of the truth (0: it is its neighbourhood's best, the candidate the
 non-maximum suppression keeps), the heading error at its best shift, and its rank over the whole
@@ -35,16 +35,13 @@ def main() -> None:
     from localize_diagnose import study_localizer  # scripts/ is this script's folder
 
     from navbench.geometry import wrap_angle
-    from navbench.localize import signature as sig
 
     args.camera, args.sampling = "half", "uniform"
     loc, _, queries = study_localizer(args)
     c, points = loc.config, loc.bank.points
-    weight = np.r_[np.full(c.rows, c.robust_depth_weight), np.ones(loc.bank.pano.shape[1] - c.rows)]
-    tau = np.full(len(weight), c.robust_tau)
     ranks = []
     for n, (true, frame, _) in enumerate(queries):
-        shift, cost = sig.exhaustive_truncated(loc.bank.pano, loc.query_signature(frame), weight, tau)
+        shift, cost = loc.robust_costs(loc.query_signature(frame))
         d = np.hypot(points[:, 0] - true[0], points[:, 1] - true[1])
         tp = int(np.argmin(d))
         region = np.flatnonzero(d < args.radius)

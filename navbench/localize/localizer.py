@@ -316,19 +316,24 @@ class Localizer:
             cost[top] = rob[:, 0]
         return candidates(best, cost, self.bank.points, count, cfg)
 
-    def robust_candidates(self, Q: np.ndarray, count: int) -> list[np.ndarray]:
-        """The ``count`` best coarse poses for ``Q`` under the robust search
-        (:func:`~navbench.localize.signature.exhaustive_truncated` over every lattice point and
+    def robust_costs(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(best shift, cost)`` of every lattice point for the query window ``Q`` under the
+        robust search (:func:`~navbench.localize.signature.exhaustive_truncated` over every
         shift: each channel value costs at most ``robust_tau``, depth channels weigh
-        ``robust_depth_weight``, grey ones 1), after non-maximum suppression, best first."""
+        ``robust_depth_weight``, grey ones 1)."""
         cfg = self.config
         rows = cfg.rows
         weight = np.r_[np.full(rows, cfg.robust_depth_weight), np.ones(self.bank.pano.shape[1] - rows)]
         if self._wrapped is None:  # built at the first robust search (most maps never need it)
             self._wrapped = sig.wrapped_panorama(self.bank.pano, Q.shape[1])
-        shift, cost = sig.exhaustive_truncated(self.bank.pano, Q, weight, np.full(len(weight), cfg.robust_tau),
-                                               self._wrapped)
-        return candidates(shift, cost, self.bank.points, count, cfg)
+        return sig.exhaustive_truncated(self.bank.pano, Q, weight, np.full(len(weight), cfg.robust_tau),
+                                        self._wrapped)
+
+    def robust_candidates(self, Q: np.ndarray, count: int) -> list[np.ndarray]:
+        """The ``count`` best coarse poses for ``Q`` under the robust search
+        (:meth:`robust_costs`), after non-maximum suppression, best first."""
+        shift, cost = self.robust_costs(Q)
+        return candidates(shift, cost, self.bank.points, count, self.config)
 
     def _scan_start(self, frame: Frame, pose: np.ndarray) -> np.ndarray:
         """``pose`` moved to where the horizon row of ``frame`` best fits the map's occupancy at
