@@ -212,7 +212,7 @@ class Localizer:
         self._corr = sig.Correlator(bank.pano, self._R)
         self._wrapped: np.ndarray | None = None  # the robust search's copy of the panoramas
         self._scan = None  # the likelihood field of the scan matching, made when first needed
-        _check_robust(config)
+        _check_search(config)
         n = int(config.refine_stride)
         if n < 1:
             raise LocalizationError(f"localizer: refine_stride must be >= 1, got {n}")
@@ -232,7 +232,7 @@ class Localizer:
         """Render the signature bank of ``world_model`` (any :class:`~navbench.worldmodel.base.WorldModel`)
         for a camera ``intrinsics`` at ``camera_height``; :class:`LocalizationError` for a map
         with no free lattice point."""
-        _check_robust(config)  # before the bank's seconds of rendering
+        _check_search(config)  # before the bank's seconds of rendering
         return cls(world_model, intrinsics, camera_height, config,
                    build_bank(world_model, camera_height, config))
 
@@ -396,17 +396,15 @@ class Localizer:
             new = align_planar(ref, frame, pose, self._gn, self._idx, self.camera_height)
             if not np.all(np.isfinite(new)):
                 break
-            last = (conf, score, new, pose)  # new pose, the score of the render at pose
-            pose = new
+            last = (conf, score, new)  # the new pose, with the score of the render at ``pose``
+            rendered, pose = pose, new
         else:  # the last refined pose: verified again if the last round moved it, else the
             #     last render's score stands for it (within reverify of where it was taken)
-            prev = last[3]
-            moved = max(float(np.hypot(*(pose[:2] - prev[:2]))), abs(float(wrap_angle(pose[2] - prev[2]))))
+            moved = max(float(np.hypot(*(pose[:2] - rendered[:2]))), abs(float(wrap_angle(pose[2] - rendered[2]))))
             if cfg.reverify > 0 and moved > cfg.reverify:
-                conf, score = self._verify(frame, self._renderer.render(pose))
-                last = (conf, score, pose, pose)
+                last = (*self._verify(frame, self._renderer.render(pose)), pose)
             if best[1] <= last[1]:
-                best = last[:3]
+                best = last
         conf, score, pose = best
         pose = pose.copy()
         pose[2] = float(wrap_angle(pose[2]))
@@ -555,8 +553,8 @@ def _suppress(xy, heads, k, radius, max_dh):
     return out[:m]
 
 
-def _check_robust(cfg: LocalizerConfig) -> None:
-    """One-line errors for the robust search's and the scan matching's settings."""
+def _check_search(cfg: LocalizerConfig) -> None:
+    """One-line errors for the settings of the robust search, the scan matching and ``reverify``."""
     if cfg.robust_after < 0 or not cfg.robust_tau > 0 or not cfg.robust_depth_weight >= 0:
         raise LocalizationError(f"localizer: robust_after must be >= 0 (0: off), robust_tau > 0 and "
                                 f"robust_depth_weight >= 0; got {cfg.robust_after}, {cfg.robust_tau}, "
