@@ -98,7 +98,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -160,10 +160,25 @@ class LocalizerConfig:
     scan_trunc: float = 0.2        # ... on the map's likelihood field truncated here (m),
     scan_coarse: int = 2           # ... a grid this many times sparser first; with
     scan_both: bool = True         # ... the candidate itself refined too (each counts)
+    close_margin: float = 0.5      # > 0: after the stop above, refine on while the next coarse candidate's
+    close_max: int = 6             # ... cost is within (1 + close_margin) x the best one's, up to this
+    #                                many refined (2026-11-26; 0: off, the search before that day)
     reverify: float = 0.01         # > 0: a refined pose the last round moved more than this (m, or
     #                                rad in heading) is rendered and verified again, so that every
     #                                hypothesis's score is its own pose's; 0: the last render's score
     #                                stands for it (before 2026-11-26: up to 0.6 m away in changed rooms)
+
+
+def keyed_settings(cfg: LocalizerConfig) -> dict:
+    """Every field of ``cfg`` as a dict, for the cache keys that hold a resolved localiser, less
+    the fields added since those keys were first stored when they leave the search as it was
+    (``close_margin = 0`` drops ``close_margin`` and ``close_max``): a new option at its neutral
+    value keeps the stored results' keys."""
+    d = asdict(cfg)
+    if cfg.close_margin == 0:
+        d.pop("close_margin")
+        d.pop("close_max")
+    return d
 
 
 @dataclass(frozen=True)
@@ -254,7 +269,8 @@ class Localizer:
         t1 = time.perf_counter()
         budget = max(k, cfg.max_candidates)
         # (pose, scan-match it first?): the fast path's candidates are refined as they are
-        queue = [(c, False) for c in self.coarse_candidates(Q, budget)]
+        ccost: list[float] = []
+        queue = [(c, False) for c in self.coarse_candidates(Q, budget, ccost)]
         t2 = time.perf_counter()
         small = self.strided(frame)
         hyps: list[Hypothesis] = []
@@ -281,7 +297,8 @@ class Localizer:
             tried.append(pose)
             hyps.append(self._refine(small, pose, floor))
             if len(hyps) >= cfg.min_candidates and \
-                    len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k:
+                    len(_dedupe([h for h in hyps if h.confidence >= cfg.accept])) >= k \
+                    and not self._close_next(queue, ccost, len(hyps)):
                 break
         self.last_candidates = tried + [c for c, _ in queue]
         self.last_refined = list(hyps)
@@ -298,9 +315,21 @@ class Localizer:
         return sig.query_signature(frame, self.intrinsics, self._ycs, cfg.grey_weight, cfg.bins,
                                    cfg.depth_feature, cfg.feature_range)
 
-    def coarse_candidates(self, Q: np.ndarray, count: int) -> list[np.ndarray]:
+    def _close_next(self, queue, ccost: list[float], refined: int) -> bool:
+        """Whether the next queued candidate is a fast-path one whose coarse cost is within
+        ``(1 + close_margin)`` times the best coarse cost, with fewer than ``close_max`` refined:
+        the search goes on past ``k`` verified hypotheses for views the coarse costs do not
+        decide (a near tie in the signatures; ``close_margin = 0``: never)."""
+        cfg = self.config
+        if cfg.close_margin <= 0 or refined >= cfg.close_max or not queue or queue[0][1] \
+                or refined >= len(ccost):
+            return False
+        return ccost[refined] <= (1.0 + cfg.close_margin) * ccost[0]
+
+    def coarse_candidates(self, Q: np.ndarray, count: int, costs: list | None = None) -> list[np.ndarray]:
         """The ``count`` best coarse poses for the query window ``Q``, best first: circular
-        correlation over the bank, robust re-ranking, non-maximum suppression."""
+        correlation over the bank, robust re-ranking, non-maximum suppression. ``costs``: a
+        list the candidates' coarse costs are appended to, in the same order."""
         cfg = self.config
         best, cost = self._corr.best(Q)
         if cfg.truncate > 0:  # robust re-ranking of the best points at their best L2 shift
@@ -314,7 +343,7 @@ class Localizer:
                 rob = sig.truncated_costs(self._pano_top(top), Q, best[top, None], cfg.truncate)
             cost = np.full_like(cost, np.inf)
             cost[top] = rob[:, 0]
-        return candidates(best, cost, self.bank.points, count, cfg)
+        return candidates(best, cost, self.bank.points, count, cfg, costs)
 
     def robust_costs(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(best shift, cost)`` of every lattice point for the query window ``Q`` under the
@@ -511,12 +540,13 @@ def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Ba
 
 
 def candidates(best_s: np.ndarray, best: np.ndarray, points: np.ndarray, k: int,
-               cfg: LocalizerConfig) -> list[np.ndarray]:
+               cfg: LocalizerConfig, costs: list | None = None) -> list[np.ndarray]:
     """The ``k`` best (lattice point, heading) given each point's best heading bin ``best_s (N,)``
     and its cost ``best (N,)`` (``inf``: not a candidate), each a local minimum over the others
     within ``nms_radius`` m and ``nms_deg`` degrees (non-maximum suppression), best first, as
     poses ``(x, y, theta)``. The suppression is :func:`_suppress` (compiled; the numpy loop it
-    replaced is its reference in the tests, equal bit for bit)."""
+    replaced is its reference in the tests, equal bit for bit). ``costs``: a list the kept
+    candidates' costs are appended to."""
     bins = cfg.bins
     idx = np.flatnonzero(np.isfinite(best))
     idx = idx[np.argsort(best[idx], kind="stable")]
@@ -524,6 +554,8 @@ def candidates(best_s: np.ndarray, best: np.ndarray, points: np.ndarray, k: int,
     xy = np.ascontiguousarray(points[idx], dtype=np.float64)
     keep = _suppress(xy, np.ascontiguousarray(heads, dtype=np.float64), int(k),
                      float(cfg.nms_radius), math.radians(cfg.nms_deg))
+    if costs is not None:
+        costs.extend(float(best[idx[p]]) for p in keep)
     return [np.array([xy[p, 0], xy[p, 1], float(wrap_angle(heads[p]))]) for p in keep]
 
 
@@ -559,6 +591,9 @@ def _check_search(cfg: LocalizerConfig) -> None:
         raise LocalizationError(f"localizer: robust_after must be >= 0 (0: off), robust_tau > 0 and "
                                 f"robust_depth_weight >= 0; got {cfg.robust_after}, {cfg.robust_tau}, "
                                 f"{cfg.robust_depth_weight}")
+    if not (cfg.close_margin >= 0 and cfg.close_max >= 1):
+        raise LocalizationError(f"localizer: close_margin must be >= 0 (0: off) and close_max >= 1; "
+                                f"got {cfg.close_margin}, {cfg.close_max}")
     if not cfg.reverify >= 0:
         raise LocalizationError(f"localizer: reverify must be >= 0 (0: off), got {cfg.reverify}")
     if not (cfg.scan_radius >= 0 and cfg.scan_deg >= 0 and cfg.scan_trunc > 0 and cfg.scan_coarse >= 1):

@@ -277,10 +277,13 @@ def _goal_score(match, cfg: ImageNavConfig):
 
 def loop_localizer_config(cfg: "ImageNavConfig"):
     """The :class:`~navbench.localize.LocalizerConfig` the loop matches the goal with on the seen
-    map: the localiser's defaults on the loop's ``lattice_step`` (the cell key holds all of it)."""
+    map: the localiser's defaults on the loop's ``lattice_step``, without the near-tie search
+    (``close_margin = 0``: tuned on single views of whole maps, not measured on goal matching
+    in a partly seen house; the unknown-house figures ran without it). The cell key holds all
+    of it."""
     from navbench.localize import LocalizerConfig
 
-    return LocalizerConfig(lattice_step=cfg.lattice_step)
+    return LocalizerConfig(lattice_step=cfg.lattice_step, close_margin=0.0)
 
 
 def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig = ImageNavConfig(),

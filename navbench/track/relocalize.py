@@ -191,11 +191,10 @@ def relocalizer_settings(options: dict) -> dict | None:
     name = options.get("relocalizer_name", "localize")
     if name != "localize":
         return {"name": name}
-    from dataclasses import asdict
-
     from navbench.localize import LocalizerConfig
+    from navbench.localize.localizer import keyed_settings
 
-    return {"name": name, "config": asdict(LocalizerConfig())}
+    return {"name": name, "config": keyed_settings(LocalizerConfig())}
 
 
 def check_relocalizer(name: str) -> None:

@@ -248,3 +248,41 @@ def test_a_refined_pose_is_scored_by_its_own_render(loc, monkeypatch):
     h = old.refine(frame, pose)
     np.testing.assert_allclose(h.pose, pose + [0.5, 0.0, 0.0], atol=1e-12)
     assert h.score == loc.verify_at(frame, pose).score > loc.verify_at(frame, h.pose).score
+
+
+def test_near_tied_candidates_are_refined_past_the_first_verified(loc, monkeypatch):
+    """``close_margin``: once ``k`` hypotheses are verified, the next coarse candidates whose
+    coarse cost is within ``(1 + close_margin)`` times the best one's are refined too (at most
+    ``close_max`` in all), so a view whose signatures nearly tie is decided by verifying each;
+    a clearly worse coarse cost ends the search as before, and ``close_margin = 0`` is the search
+    before 2026-11-26 (``min_candidates`` refined, then stop)."""
+    from navbench.localize.localizer import Hypothesis
+
+    poses = [np.array([x, 1.0, 0.0]) for x in (1.0, 1.5, 2.0, 2.5)]
+    costs = [1.0, 1.2, 1.4, 2.0]  # coarse costs, best first
+    scores = {1.0: 0.90, 1.5: 0.88, 2.0: 0.99, 2.5: 1.0}  # verified scores: the third is right
+
+    def coarse(self, Q, count, out=None):
+        out.extend(costs)
+        return [p.copy() for p in poses]
+
+    def refine(self, frame, pose, floor=-np.inf):
+        return Hypothesis(pose.copy(), scores[float(pose[0])], 0.95)
+
+    monkeypatch.setattr(Localizer, "coarse_candidates", coarse)
+    monkeypatch.setattr(Localizer, "_refine", refine)
+    frame = RaycastCamera(room(), HALF_CAMERA).render(np.array([2.0, 1.0, 0.0]))
+
+    def run(**kw):
+        one = Localizer(loc.world_model, loc.intrinsics, loc.camera_height, replace(CFG, **kw), loc.bank)
+        h = one.localize(frame)[0]
+        return float(h.pose[0]), len(one.last_refined)
+
+    assert run(close_margin=0.0) == (1.0, 2)        # min_candidates, then stop: the wrong place
+    assert run(close_margin=0.5) == (2.0, 3)        # 1.4 <= 1.5 refined, 2.0 > 1.5 not
+    assert run(close_margin=0.5, close_max=2) == (1.0, 2)
+    assert run(close_margin=1.0) == (2.5, 4)        # 2.0 <= 2.0: every candidate
+    from navbench.localize.localizer import LocalizationError
+
+    with pytest.raises(LocalizationError, match="close_margin must be >= 0"):
+        run(close_margin=-0.1)

@@ -52,11 +52,10 @@ class ImageGoalConfig:
     def localizer_settings(self) -> dict:
         """Every field of :meth:`localizer_config` as plain JSON: what the goals' keys hold of
         the localiser (its defaults change as it improves, and the goals found with them)."""
-        from dataclasses import asdict
-
         from navbench.config import to_jsonable
+        from navbench.localize.localizer import keyed_settings
 
-        return to_jsonable(asdict(self.localizer_config()))
+        return to_jsonable(keyed_settings(self.localizer_config()))
 
     def rules(self):
         from navbench.nav.imagegoal import GoalRules

@@ -147,15 +147,14 @@ def online_key_part(cfg) -> dict:
     own = to_jsonable(cfg.online)
     if own.get("ablation") == "full":  # the full model: the keys of the runs before ablations
         own.pop("ablation")
-    from dataclasses import asdict
-
+    from navbench.localize.localizer import keyed_settings
     from navbench.nav.imagenav import loop_localizer_config
 
     loop = loop_config(cfg.episode, cfg.online.ablation)
     part = {**own, "loop": to_jsonable(loop), "version": LOOP_VERSION,
             # every field of the localiser the loop matches the goal with: its defaults change as
             # the localiser improves, and the episodes with them (keyed since 2026-11-26)
-            "localizer": to_jsonable(asdict(loop_localizer_config(loop)))}
+            "localizer": to_jsonable(keyed_settings(loop_localizer_config(loop)))}
     if cfg.online.mapping == "fused":  # the fusion's settings and version (its grids change with them)
         from navbench.worldmodel.fusion import FUSION_VERSION, FusionConfig
 
