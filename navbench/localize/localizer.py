@@ -32,7 +32,9 @@ Query (:meth:`Localizer.localize`)
        verified (``confidence >= accept``), a later candidate whose score at its coarse pose
        (tolerances x ``screen_loose``) is more than ``screen_margin`` below the best is not
        aligned (screened). Refinement stops once ``min_candidates`` were tried and ``k``
-       distinct hypotheses reach ``accept``, or after ``max_candidates``;
+       distinct hypotheses reach ``accept`` and the next coarse candidate's cost is more than
+       ``1 + close_margin`` times the best one's (or ``close_max`` were refined: a near tie of
+       the signatures is decided by verifying each), or after ``max_candidates``;
     4. the robust search (changed rooms): when the first ``robust_after`` refined candidates
        verify nothing, the rest of the ``max_candidates`` come from a truncated L1 over *every*
        lattice point at *every* shift (:func:`~navbench.localize.signature.exhaustive_truncated`:
