@@ -102,11 +102,12 @@ def main() -> None:
     counts: Counter = Counter()
     wall = {"found": [], "failed": []}
     view = {"found": [], "failed": []}
-    rows, ms, nref = [], [], []
+    rows, ms, nref, heading_ok = [], [], [], []
     for n, (true, frame, diff) in enumerate(queries):
         h = loc.localize(frame)[0]
         ms.append(loc.last_timing["cpu"])
         nref.append(len(loc.last_refined))
+        heading_ok.append(abs(math.degrees(float(wrap_angle(h.pose[2] - true[2])))) <= 10)
         err = math.hypot(*(h.pose[:2] - true[:2]))
         wall["found" if err <= 0.5 else "failed"].append(float(distance_to_solids(base, true[None, :2])[0]))
         view["found" if err <= 0.5 else "failed"].append(float(np.median(frame.depth[frame.valid])))
@@ -136,7 +137,8 @@ def main() -> None:
     total = sum(counts.values())
     print(f"{args.level}, map {args.map}, {total} queries, changes {args.changes}: "
           f"recall 50 cm {100 * counts['found'] / total:.1f} %, median query {np.median(ms):.1f} ms CPU (p90 {np.percentile(ms, 90):.1f}), "
-          f"refined per query median {np.median(nref):.0f} (max {max(nref)})")
+          f"refined per query median {np.median(nref):.0f} (mean {np.mean(nref):.2f}, max {max(nref)}), "
+          f"heading within 10 deg {100 * np.mean(heading_ok):.1f} %")
     for k, v in counts.most_common():
         print(f"  {k:26s} {v:4d}")
     edges = (0.0, 0.2, 0.4, 0.8, np.inf)
