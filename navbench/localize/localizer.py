@@ -104,11 +104,11 @@ from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from navbench.errors import NavbenchError
 from navbench.geometry import Frame, Intrinsics, camera_pose, wrap_angle
 from navbench.localize import signature as sig
+from navbench.localize.candidates import _dedupe, _same_candidate, _suppress, candidates  # noqa: F401
 from navbench.track.eq7 import (TrackerConfig, accumulate, linearization, pixel_table, prepare_reference,
                                 prior_terms, retract, sample_observation, to_planar)
 from navbench.track.lie import se3_inverse
@@ -541,52 +541,6 @@ def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Ba
     return Bank(points.astype(np.float64), pano)
 
 
-def candidates(best_s: np.ndarray, best: np.ndarray, points: np.ndarray, k: int,
-               cfg: LocalizerConfig, costs: list | None = None) -> list[np.ndarray]:
-    """The ``k`` best (lattice point, heading) given each point's best heading bin ``best_s (N,)``
-    and its cost ``best (N,)`` (``inf``: not a candidate), each a local minimum over the others
-    within ``nms_radius`` m and ``nms_deg`` degrees (non-maximum suppression), best first, as
-    poses ``(x, y, theta)``. The suppression is :func:`_suppress` (compiled; the numpy loop it
-    replaced is its reference in the tests, equal bit for bit). ``costs``: a list the kept
-    candidates' costs are appended to."""
-    bins = cfg.bins
-    idx = np.flatnonzero(np.isfinite(best))
-    idx = idx[np.argsort(best[idx], kind="stable")]
-    heads = best_s[idx] * (2 * math.pi / bins)
-    xy = np.ascontiguousarray(points[idx], dtype=np.float64)
-    keep = _suppress(xy, np.ascontiguousarray(heads, dtype=np.float64), int(k),
-                     float(cfg.nms_radius), math.radians(cfg.nms_deg))
-    if costs is not None:
-        costs.extend(float(best[idx[p]]) for p in keep)
-    return [np.array([xy[p, 0], xy[p, 1], float(wrap_angle(heads[p]))]) for p in keep]
-
-
-@njit(cache=True)
-def _suppress(xy, heads, k, radius, max_dh):
-    """Greedy non-maximum suppression over points sorted best first: the positions kept (at most
-    ``k``); each kept point removes every still-alive point (itself included) within ``radius``
-    (``hypot``) and ``max_dh`` (wrapped heading difference, as :func:`wrap_angle`)."""
-    n = heads.shape[0]
-    alive = np.ones(n, np.bool_)
-    out = np.empty(max(k, 0), np.int64)
-    m = 0
-    pos = 0
-    while m < k:
-        while pos < n and not alive[pos]:
-            pos += 1
-        if pos >= n:
-            break
-        out[m] = pos
-        m += 1
-        x0, y0, h0 = xy[pos, 0], xy[pos, 1], heads[pos]
-        for j in range(n):
-            if alive[j] and math.hypot(xy[j, 0] - x0, xy[j, 1] - y0) < radius:
-                if abs((heads[j] - h0 + math.pi) % (2 * math.pi) - math.pi) < max_dh:
-                    alive[j] = False
-        pos += 1
-    return out[:m]
-
-
 def _check_search(cfg: LocalizerConfig) -> None:
     """One-line errors for the settings of the robust search, the scan matching and ``reverify``."""
     if cfg.robust_after < 0 or not cfg.robust_tau > 0 or not cfg.robust_depth_weight >= 0:
@@ -602,20 +556,3 @@ def _check_search(cfg: LocalizerConfig) -> None:
         raise LocalizationError(f"localizer: scan_radius and scan_deg must be >= 0 (0: off), scan_trunc > 0 "
                                 f"and scan_coarse >= 1; got {cfg.scan_radius}, {cfg.scan_deg}, "
                                 f"{cfg.scan_trunc}, {cfg.scan_coarse}")
-
-
-def _same_candidate(a: np.ndarray, b: np.ndarray, cfg: LocalizerConfig) -> bool:
-    """Whether coarse poses ``a`` and ``b`` are one candidate for the non-maximum suppression
-    (closer than ``nms_radius`` and ``nms_deg``)."""
-    return bool(math.hypot(a[0] - b[0], a[1] - b[1]) < cfg.nms_radius
-                and abs(float(wrap_angle(a[2] - b[2]))) < math.radians(cfg.nms_deg))
-
-
-def _dedupe(hyps: list[Hypothesis]) -> list[Hypothesis]:
-    """Drop a hypothesis within 5 cm and 2 degrees of a better one (refined to the same pose)."""
-    out: list[Hypothesis] = []
-    for h in hyps:
-        if not any(np.hypot(*(h.pose[:2] - o.pose[:2])) < 0.05
-                   and abs(float(wrap_angle(h.pose[2] - o.pose[2]))) < math.radians(2) for o in out):
-            out.append(h)
-    return out
