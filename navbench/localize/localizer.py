@@ -32,9 +32,9 @@ Query (:meth:`Localizer.localize`)
        verified (``confidence >= accept``), a later candidate whose score at its coarse pose
        (tolerances x ``screen_loose``) is more than ``screen_margin`` below the best is not
        aligned (screened). Refinement stops once ``min_candidates`` were tried and ``k``
-       distinct hypotheses reach ``accept`` and the next coarse candidate's cost is more than
-       ``1 + close_margin`` times the best one's (or ``close_max`` were refined: a near tie of
-       the signatures is decided by verifying each), or after ``max_candidates``;
+       distinct hypotheses reach ``accept`` and the next coarse candidate's cost exceeds the best
+       one's by more than ``close_margin`` (or ``close_max`` were refined: a near tie of the
+       signatures is decided by verifying each), or after ``max_candidates``;
     4. the robust search (changed rooms): when the first ``robust_after`` refined candidates
        verify nothing, the rest of the ``max_candidates`` come from a truncated L1 over *every*
        lattice point at *every* shift (:func:`~navbench.localize.signature.exhaustive_truncated`:
@@ -162,9 +162,9 @@ class LocalizerConfig:
     scan_trunc: float = 0.2        # ... on the map's likelihood field truncated here (m),
     scan_coarse: int = 2           # ... a grid this many times sparser first; with
     scan_both: bool = True         # ... the candidate itself refined too (each counts)
-    close_margin: float = 0.5      # > 0: after the stop above, refine on while the next coarse candidate's
-    close_max: int = 6             # ... cost is within (1 + close_margin) x the best one's, up to this
-    #                                many refined (2026-11-26; 0: off, the search before that day)
+    close_margin: float = 1.0      # > 0: after the stop above, refine on while the next coarse candidate's
+    close_max: int = 6             # ... cost exceeds the best one's by at most this, up to this many
+    #                                refined (2026-11-26; 0: off, the search before that day)
     reverify: float = 0.01         # > 0: a refined pose the last round moved more than this (m, or
     #                                rad in heading) is rendered and verified again, so that every
     #                                hypothesis's score is its own pose's; 0: the last render's score
@@ -318,15 +318,17 @@ class Localizer:
                                    cfg.depth_feature, cfg.feature_range)
 
     def _close_next(self, queue, ccost: list[float], refined: int) -> bool:
-        """Whether the next queued candidate is a fast-path one whose coarse cost is within
-        ``(1 + close_margin)`` times the best coarse cost, with fewer than ``close_max`` refined:
-        the search goes on past ``k`` verified hypotheses for views the coarse costs do not
-        decide (a near tie in the signatures; ``close_margin = 0``: never)."""
+        """Whether the next queued candidate is a fast-path one whose coarse cost exceeds the
+        best coarse cost by at most ``close_margin`` (the truncated L1 of the re-ranking), with
+        fewer than ``close_max`` refined: the search goes on past ``k`` verified hypotheses for
+        views the coarse costs do not decide (a near tie in the signatures; ``close_margin =
+        0``: never). A difference, not a ratio: a changed room adds its changed columns' cost to
+        every candidate, and a ratio then calls far more of them near ties."""
         cfg = self.config
         if cfg.close_margin <= 0 or refined >= cfg.close_max or not queue or queue[0][1] \
                 or refined >= len(ccost):
             return False
-        return ccost[refined] <= (1.0 + cfg.close_margin) * ccost[0]
+        return ccost[refined] - ccost[0] <= cfg.close_margin
 
     def coarse_candidates(self, Q: np.ndarray, count: int, costs: list | None = None) -> list[np.ndarray]:
         """The ``count`` best coarse poses for the query window ``Q``, best first: circular

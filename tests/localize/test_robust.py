@@ -252,14 +252,14 @@ def test_a_refined_pose_is_scored_by_its_own_render(loc, monkeypatch):
 
 def test_near_tied_candidates_are_refined_past_the_first_verified(loc, monkeypatch):
     """``close_margin``: once ``k`` hypotheses are verified, the next coarse candidates whose
-    coarse cost is within ``(1 + close_margin)`` times the best one's are refined too (at most
+    coarse cost exceeds the best one's by at most ``close_margin`` are refined too (at most
     ``close_max`` in all), so a view whose signatures nearly tie is decided by verifying each;
     a clearly worse coarse cost ends the search as before, and ``close_margin = 0`` is the search
     before 2026-11-26 (``min_candidates`` refined, then stop)."""
     from navbench.localize.localizer import Hypothesis
 
     poses = [np.array([x, 1.0, 0.0]) for x in (1.0, 1.5, 2.0, 2.5)]
-    costs = [1.0, 1.2, 1.4, 2.0]  # coarse costs, best first
+    costs = [3.0, 3.2, 3.4, 4.0]  # coarse costs, best first (a ratio rule would read 1.07 / 1.13 / 1.33)
     scores = {1.0: 0.90, 1.5: 0.88, 2.0: 0.99, 2.5: 1.0}  # verified scores: the third is right
 
     def coarse(self, Q, count, out=None):
@@ -279,9 +279,10 @@ def test_near_tied_candidates_are_refined_past_the_first_verified(loc, monkeypat
         return float(h.pose[0]), len(one.last_refined)
 
     assert run(close_margin=0.0) == (1.0, 2)        # min_candidates, then stop: the wrong place
-    assert run(close_margin=0.5) == (2.0, 3)        # 1.4 <= 1.5 refined, 2.0 > 1.5 not
+    assert run(close_margin=0.5) == (2.0, 3)        # 3.4 - 3.0 <= 0.5 refined, 4.0 - 3.0 > 0.5 not
     assert run(close_margin=0.5, close_max=2) == (1.0, 2)
-    assert run(close_margin=1.0) == (2.5, 4)        # 2.0 <= 2.0: every candidate
+    assert run(close_margin=1.0) == (2.5, 4)        # 4.0 - 3.0 <= 1.0: every candidate
+    assert run(close_margin=0.3) == (1.0, 2)        # 3.4 - 3.0 > 0.3: stop at two
     from navbench.localize.localizer import LocalizationError
 
     with pytest.raises(LocalizationError, match="close_margin must be >= 0"):
