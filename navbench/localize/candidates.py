@@ -7,6 +7,7 @@ Arrays in, arrays out."""
 from __future__ import annotations
 
 import math
+
 import numpy as np
 from numba import njit
 
