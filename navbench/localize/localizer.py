@@ -283,6 +283,7 @@ class Localizer:
                 tr = time.perf_counter()  # nothing verified: a changed room? the robust search
                 queue = [(c, cfg.scan_radius > 0) for c in self.robust_candidates(Q, budget)
                          if not any(_same_candidate(c, t, cfg) for t in tried)]
+                ccost = []  # the coarse costs no longer describe the queue
                 robust_ms = 1e3 * (time.perf_counter() - tr)
                 if not queue:
                     break
@@ -318,15 +319,15 @@ class Localizer:
                                    cfg.depth_feature, cfg.feature_range)
 
     def _close_next(self, queue, ccost: list[float], refined: int) -> bool:
-        """Whether the next queued candidate is a fast-path one whose coarse cost exceeds the
-        best coarse cost by at most ``close_margin`` (the truncated L1 of the re-ranking), with
+        """Whether the next queued candidate, ``ccost[refined]`` while the queue is the coarse
+        search's (the robust search empties ``ccost``), has a coarse cost exceeding the best
+        coarse cost by at most ``close_margin`` (the truncated L1 of the re-ranking), with
         fewer than ``close_max`` refined: the search goes on past ``k`` verified hypotheses for
         views the coarse costs do not decide (a near tie in the signatures; ``close_margin =
         0``: never). A difference, not a ratio: a changed room adds its changed columns' cost to
         every candidate, and a ratio then calls far more of them near ties."""
         cfg = self.config
-        if cfg.close_margin <= 0 or refined >= cfg.close_max or not queue or queue[0][1] \
-                or refined >= len(ccost):
+        if cfg.close_margin <= 0 or refined >= cfg.close_max or not queue or refined >= len(ccost):
             return False
         return ccost[refined] - ccost[0] <= cfg.close_margin
 
