@@ -61,16 +61,22 @@ def study_localizer(args):
     return loc, base, study_queries(base, cfg, intr)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def add_study_arguments(ap: argparse.ArgumentParser, queries: int = 100) -> None:
+    """The arguments :func:`study_localizer` reads but ``option``: the level, its map and the
+    query draw of ``localize-eval``."""
     ap.add_argument("level")
     ap.add_argument("--map", default="true")
     ap.add_argument("--profile", default=None)
-    ap.add_argument("--queries", type=int, default=100)
+    ap.add_argument("--queries", type=int, default=queries)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--changes", default=None)
     ap.add_argument("--camera", default="half")
     ap.add_argument("--sampling", default="uniform", help="uniform or trajectory")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_study_arguments(ap)
     ap.add_argument("--option", "-o", action="append", default=[])
     ap.add_argument("--show", type=int, default=20)
     args = ap.parse_args()

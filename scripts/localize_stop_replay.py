@@ -45,19 +45,12 @@ def replay(recs, close, close_max: int, accept: float, min_candidates: int) -> t
 
 
 def main() -> None:
-    from localize_diagnose import study_localizer
+    from localize_diagnose import add_study_arguments, study_localizer
 
     from navbench.localize import Localizer
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("level")
-    ap.add_argument("--map", default="true")
-    ap.add_argument("--profile", default=None)
-    ap.add_argument("--queries", type=int, default=300)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--changes", default=None)
-    ap.add_argument("--camera", default="half")
-    ap.add_argument("--sampling", default="uniform")
+    add_study_arguments(ap, queries=300)
     ap.add_argument("--close-max", type=int, default=6)
     args = ap.parse_args()
     args.option = ["close_margin=1e9", f"close_max={args.close_max}"]
