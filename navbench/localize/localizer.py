@@ -108,6 +108,7 @@ import numpy as np
 from navbench.errors import NavbenchError
 from navbench.geometry import Frame, Intrinsics, camera_pose, wrap_angle
 from navbench.localize import signature as sig
+from navbench.localize.bankrender import panoramas
 from navbench.localize.candidates import _dedupe, _same_candidate, _suppress, candidates  # noqa: F401
 from navbench.track.eq7 import (TrackerConfig, accumulate, linearization, pixel_table, prepare_reference,
                                 prior_terms, retract, sample_observation, to_planar)
@@ -536,11 +537,8 @@ def build_bank(world_model, camera_height: float, config: LocalizerConfig) -> Ba
     points = sig.lattice_points(occ, xs, ys, cfg.lattice_step, cfg.clearance)
     ycs = sig.elevations(cfg.rows, cfg.row_top, cfg.row_step)
     quad = sig.quadrant_intrinsics(cfg.bins, cfg.rows, cfg.row_top, cfg.row_step)
-    render = world_model.renderer(quad, camera_height).render
-    pano = np.empty((len(points), 2 * cfg.rows, cfg.bins), np.float32)
-    for i, xy in enumerate(points):
-        pano[i] = sig.panorama(render, xy, cfg.bins, ycs, cfg.grey_weight, quad,
-                               cfg.depth_feature, cfg.feature_range)
+    pano = panoramas(world_model.renderer(quad, camera_height), points, cfg.bins, ycs, cfg.grey_weight,
+                     quad, cfg.depth_feature, cfg.feature_range)  # sig.panorama at every point
     return Bank(points.astype(np.float64), pano)
 
 
