@@ -7,7 +7,8 @@ its task set, so ``--tasks 2`` then ``--tasks 4`` store tasks 0 and 1 under two 
 are therefore counted once per (setup, task, seed) (:func:`with_identities`: the setup is the
 cell without its task set, the task is its start and target), the first stored row kept. ``run``
 narrows this to the episodes a given run inserted (``"latest"``: the newest run that stored
-episodes) -- note that a resumed run owns only the episodes it added.
+episodes) -- note that a resumed run owns only the episodes it added, so a measurement resumed
+over several runs is selected by listing them (``"4,5,6"``).
 
 Per group (level, estimator, noise; plus ``level = "all"`` pooled over levels):
 
@@ -148,11 +149,14 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
             run_ids = [int(runs.max())]
         else:
             try:
-                run_ids = [int(run)]
+                run_ids = sorted({int(v) for v in str(run).split(",")})
             except ValueError:
-                raise DatabaseError(f"--run must be a run id, 'latest' or 'all', not {run!r}") from None
-            if run_ids[0] not in set(db.runs_frame()["id"]):
-                raise DatabaseError(f"no run with id {run_ids[0]} in {db.display_url}")
+                raise DatabaseError(f"--run must be a run id, comma-separated run ids (a measurement "
+                                    f"resumed over several runs), 'latest' or 'all', not {run!r}") from None
+            known = set(db.runs_frame()["id"])
+            missing = [r for r in run_ids if r not in known]
+            if missing:
+                raise DatabaseError(f"no run with id {missing[0]} in {db.display_url}")
     levels = [level] if isinstance(level, str) else level
     frame = db.episodes_frame(run_ids=run_ids, level=levels or None)
     if cell_keys is not None and not frame.empty:

@@ -81,6 +81,15 @@ def test_run_and_level_selection(db):
     assert set(score_table(db, run=r2, n_boot=50)["noise"]) == {"high"}
     assert set(score_table(db, run="latest", n_boot=50)["noise"]) == {"high"}
     assert score_table(db, run=str(r1), n_boot=50)["episodes"].max() == 6
+    both = score_table(db, run=f"{r2},{r1}", n_boot=50)  # a measurement resumed over two runs
+    every = score_table(db, run="all", n_boot=50)
+    assert both[["level", "estimator", "noise", "episodes", "spl"]].equals(every[["level", "estimator", "noise",
+                                                                              "episodes", "spl"]])
+    assert set(both["noise"]) == {"low", "high"}
+    with pytest.raises(DatabaseError, match="no run with id 999"):
+        score_table(db, run=f"{r1},999")
+    with pytest.raises(DatabaseError, match="comma-separated"):
+        score_table(db, run=f"{r1},x")
     t = score_table(db, level="l2", n_boot=50)
     assert set(t["level"]) == {"l2", "all"} and _row(t, "all")["episodes"] == 2
     assert set(score_table(db, level=["l1", "l2"], n_boot=50)["level"]) == {"l1", "l2", "all"}

@@ -18,7 +18,7 @@ def report(
     levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     trajectories: int = typer.Option(3, "--trajectories", min=0, max=1000, help="Trajectories drawn per level."),
-    run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), or 'all'."),
+    run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), of several (comma-separated ids), or 'all'."),
     preset: str = typer.Option(None, "--preset", help="Scoring preset: paper, nrns or habitat "
                                "(navbench score --help). Default: paper; nrns when every selected "
                                "episode is an unknown-house one.", show_default=False),

@@ -27,7 +27,8 @@ def _fmt(value: float, ci_low: float, ci_high: float, digits: int) -> str:
 
 
 def score(
-    run: str = typer.Option("all", "--run", help="A run id, 'latest' (the newest run that stored "
+    run: str = typer.Option("all", "--run", help="A run id, comma-separated run ids (a measurement "
+                            "resumed over several runs: 4,5,6), 'latest' (the newest run that stored "
                             "episodes) or 'all' (every stored episode, once per cell/task/seed)."),
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
