@@ -151,6 +151,9 @@ class FusedMap:
     meta: dict = field(default_factory=dict)
     #: Bumped by every change (fuse, clear): what renderers of the map check for staleness.
     version: int = 0
+    #: The cells whose occupancy the change to ``version`` may have written, ``(i0, i1, j0, j1,
+    #: k0, k1)`` inclusive (``i1 < i0``: none), or None: anything (a renderer rebuilds whole).
+    dirty: tuple | None = None
 
     @classmethod
     def empty(cls, spec: GridSpec, config: FusionConfig = FusionConfig(),
@@ -181,6 +184,7 @@ class FusedMap:
         self.visited[...] = False
         self.frames = 0
         self.version += 1
+        self.dirty = None
 
     @property
     def seen(self) -> np.ndarray:
@@ -201,7 +205,8 @@ def _camera(pose, camera_height: float):
 @nb.njit(cache=True)
 def fuse_kernel(sdf, weight, col_weight, occ, col, lo, size, cam, depth, valid, rgb, scale, normals,
                 fx, fy, cx, cy, trunc, band, max_weight, max_depth, tau):
-    """Fuse one frame into the grids in place (the module docstring's rule); returns cells updated.
+    """Fuse one frame into the grids in place (the module docstring's rule); returns the number
+    of cells updated and the bounding box ``(i0, i1, j0, j1, k0, k1)`` of their occupancy writes.
 
     ``lo, size (3,)`` the grid's corner and cell size (m); ``cam = (x, y, z, cos t, sin t)`` the
     camera centre (m) and heading; ``depth (H, W)`` z-depth (m), ``valid (H, W)``, ``rgb (H, W,
@@ -214,6 +219,7 @@ def fuse_kernel(sdf, weight, col_weight, occ, col, lo, size, cam, depth, valid, 
     ox, oy, oz, c, s = cam[0], cam[1], cam[2], cam[3], cam[4]
     zmax = max_depth + trunc
     count = 0
+    box = np.array([nx, -1, ny, -1, nz, -1], np.int64)  # the occupancy writes' bounding box
     for i in range(nx):
         dx = lo[0] + (i + 0.5) * size[0] - ox
         for j in range(ny):
@@ -251,6 +257,9 @@ def fuse_kernel(sdf, weight, col_weight, occ, col, lo, size, cam, depth, valid, 
                     o = tau - 0.5 * np.float64(sdf[i, j, k])
                     occ[i, j, k] = min(max(o, tau - 0.5), tau + 0.5)
                     count += 1
+                    box[0], box[1] = min(box[0], i), max(box[1], i)
+                    box[2], box[3] = min(box[2], j), max(box[3], j)
+                    box[4], box[5] = min(box[4], k), max(box[5], k)
                 if abs(sd) <= band:
                     # the colour of the surface point nearest to the cell: along the normal
                     qx = xc - sd * normals[vi, ui, 0]
@@ -266,7 +275,7 @@ def fuse_kernel(sdf, weight, col_weight, occ, col, lo, size, cam, depth, valid, 
                     for ch in range(3):
                         col[i, j, k, ch] = (wc * col[i, j, k, ch] + rgb[cv, cu, ch]) / (wc + 1.0)
                     col_weight[i, j, k] = min(wc + 1.0, max_weight)
-    return count
+    return count, box
 
 
 def fuse_frame(fused: FusedMap, frame: Frame, pose, intrinsics: Intrinsics,
@@ -282,7 +291,7 @@ def fuse_frame(fused: FusedMap, frame: Frame, pose, intrinsics: Intrinsics,
     depth = np.ascontiguousarray(frame.depth, np.float32)
     valid = np.ascontiguousarray(frame.valid, np.bool_)
     scale, normals = scale_and_normals(depth, valid, intrinsics, fused.config.min_scale)
-    n = fuse_kernel(fused.sdf, fused.weight, fused.col_weight, vm.occ, vm.col,
+    n, box = fuse_kernel(fused.sdf, fused.weight, fused.col_weight, vm.occ, vm.col,
                     np.asarray(spec.lo, np.float64), spec.size, np.array(_camera(pose, camera_height)),
                     depth, valid, np.ascontiguousarray(frame.rgb, np.float32), scale, normals,
                     float(intrinsics.fx), float(intrinsics.fy),
@@ -292,6 +301,7 @@ def fuse_frame(fused: FusedMap, frame: Frame, pose, intrinsics: Intrinsics,
         fused.visited |= body_cells(spec, pose, fused.config.body_radius)
     fused.frames += 1
     fused.version += 1
+    fused.dirty = tuple(int(v) for v in box)
     return int(n)
 
 
@@ -457,6 +467,7 @@ def fuse_frame_reference(fused: FusedMap, frame: Frame, pose, intrinsics: Intrin
         fused.visited |= body_cells(spec, pose, fused.config.body_radius)
     fused.frames += 1
     fused.version += 1
+    fused.dirty = None  # the reference does not track what it wrote
     return int(ok.sum())
 
 

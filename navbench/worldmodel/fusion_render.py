@@ -63,12 +63,22 @@ def block_skip_tables(occ: np.ndarray, tau: float, block: int = SKIP_BLOCK,
     are identical to those of the exact tables; building these costs a few milliseconds
     instead of the exact tables' ~100 (the online map changes every frame).
     """
+    _check_block(block)
+    occ = np.ascontiguousarray(occ, np.float32)
+    cells = _block_cells(_block_flags(occ, float(tau), int(block)), int(block), cap)
+    shape = np.array([n - 1 for n in occ.shape], np.int64)
+    return _expand_blocks(cells[0], shape, int(block)), _expand_blocks(cells[1], shape, int(block))
+
+
+def _check_block(block: int) -> None:
     from navbench.worldmodel.fastrender import SLAB
 
     if block < SLAB:
         raise ConfigError(f"block_skip_tables: block {block} < SLAB {SLAB}")
-    occ = np.ascontiguousarray(occ, np.float32)
-    flags = _block_flags(occ, float(tau), int(block))
+
+
+def _block_cells(flags: np.ndarray, block: int, cap: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two tables of :func:`block_skip_tables` per block (cells, int32) from the block flags."""
     cube = np.ones((3, 3, 3), bool)
     d = _chebyshev(flags, cube, cap)
     near = flags.copy()
@@ -77,12 +87,7 @@ def block_skip_tables(occ: np.ndarray, tau: float, block: int = SKIP_BLOCK,
     layer = np.zeros((3, 3, 3), bool)
     layer[:, :, 1] = True
     d2 = _chebyshev(near, layer, cap)
-    shape = np.array([n - 1 for n in occ.shape], np.int64)
-    out = []
-    for t in (d, d2):
-        cells = np.where(t > 0, (t - 1) * block + 1, 0).clip(0, cap).astype(np.int32)
-        out.append(_expand_blocks(cells, shape, int(block)))
-    return out[0], out[1]
+    return tuple(np.where(t > 0, (t - 1) * block + 1, 0).clip(0, cap).astype(np.int32) for t in (d, d2))
 
 
 @nb.njit(cache=True)
@@ -94,6 +99,87 @@ def _expand_blocks(cells, shape, b):
             for k in range(shape[2]):
                 out[i, j, k] = cells[i // b, j // b, k // b]
     return out
+
+
+@nb.njit(cache=True)
+def _block_flags_region(occ, tau, b, flags, lo, hi):
+    """:func:`_block_flags` again for the blocks ``lo .. hi`` (inclusive, per axis) only, in
+    place: every cell whose value can flag one of them is read (a block's interpolation cells
+    have corners up to one cell past the block), the others are left as they are."""
+    nx, ny, nz = occ.shape
+    for bi in range(lo[0], hi[0] + 1):
+        for bj in range(lo[1], hi[1] + 1):
+            for bk in range(lo[2], hi[2] + 1):
+                flags[bi, bj, bk] = False
+    for i in range(lo[0] * b, min(hi[0] * b + b, nx - 1) + 1):
+        for j in range(lo[1] * b, min(hi[1] * b + b, ny - 1) + 1):
+            for k in range(lo[2] * b, min(hi[2] * b + b, nz - 1) + 1):
+                if occ[i, j, k] > tau:
+                    for ii in range(max(i - 1, 0), min(i, nx - 2) + 1):
+                        if ii // b < lo[0] or ii // b > hi[0]:
+                            continue
+                        for jj in range(max(j - 1, 0), min(j, ny - 2) + 1):
+                            if jj // b < lo[1] or jj // b > hi[1]:
+                                continue
+                            for kk in range(max(k - 1, 0), min(k, nz - 2) + 1):
+                                if lo[2] <= kk // b <= hi[2]:
+                                    flags[ii // b, jj // b, kk // b] = True
+
+
+@nb.njit(cache=True)
+def _expand_changed(new, old, out, b):
+    """Write into ``out`` (the expansion of ``old``, :func:`_expand_blocks`) the cells of every
+    block whose value differs in ``new``, so that ``out`` becomes the expansion of ``new``;
+    returns the number of blocks written."""
+    n0, n1, n2 = out.shape
+    changed = 0
+    for bi in range(new.shape[0]):
+        for bj in range(new.shape[1]):
+            for bk in range(new.shape[2]):
+                v = new[bi, bj, bk]
+                if v == old[bi, bj, bk]:
+                    continue
+                changed += 1
+                for i in range(bi * b, min(bi * b + b, n0)):
+                    for j in range(bj * b, min(bj * b + b, n1)):
+                        for k in range(bk * b, min(bk * b + b, n2)):
+                            out[i, j, k] = v
+    return changed
+
+
+class BlockSkipTables:
+    """:func:`block_skip_tables` of an online map kept up to date by its changes: after a
+    change that wrote occupancy only inside a box of cells (:attr:`FusedMap.dirty
+    <navbench.worldmodel.fusion.FusedMap.dirty>`), :meth:`update` reads the block flags again
+    only around it, recomputes the (small) block tables, and rewrites the cells of the blocks
+    whose value changed. ``tables`` equals ``block_skip_tables(occ, tau)`` after every update
+    (tested against it frame by frame); it is rewritten in place."""
+
+    def __init__(self, occ: np.ndarray, tau: float, block: int = SKIP_BLOCK, cap: int = 1000):
+        _check_block(block)
+        self.block, self.cap, self.tau = int(block), int(cap), float(tau)
+        occ = np.ascontiguousarray(occ, np.float32)
+        self.flags = _block_flags(occ, self.tau, self.block)
+        self.cells = _block_cells(self.flags, self.block, self.cap)
+        shape = np.array([n - 1 for n in occ.shape], np.int64)
+        self.tables = tuple(_expand_blocks(c, shape, self.block) for c in self.cells)
+
+    def update(self, occ: np.ndarray, box: tuple) -> None:
+        """Bring the tables up to ``occ`` after a change that wrote occupancy only inside the
+        cells ``box = (i0, i1, j0, j1, k0, k1)`` (inclusive; empty when ``i1 < i0``)."""
+        i0, i1, j0, j1, k0, k1 = box
+        if i1 < i0 or j1 < j0 or k1 < k0:
+            return
+        b = self.block
+        top = np.array(self.flags.shape, np.int64) - 1
+        # a cell i flags the interpolation cells i - 1 and i
+        lo = np.maximum(np.array([i0 - 1, j0 - 1, k0 - 1]), 0) // b
+        hi = np.minimum(np.array([i1, j1, k1]) // b, top)
+        _block_flags_region(occ, self.tau, b, self.flags, lo.astype(np.int64), hi.astype(np.int64))
+        cells = _block_cells(self.flags, b, self.cap)
+        for new, old, out in zip(cells, self.cells, self.tables):
+            _expand_changed(new, old, out, b)
+        self.cells = cells
 
 
 class FusedRenderer:
@@ -111,6 +197,7 @@ class FusedRenderer:
         self._args = (max_range, step, parallel)
         self._fr = None
         self._version = -1
+        self._skip = None
 
     def renderer(self):
         """The :class:`FastRenderer` of the map as it is now."""
@@ -118,10 +205,13 @@ class FusedRenderer:
 
         f = self.fused
         if self._fr is None or self._version != f.version:
-            tables = block_skip_tables(f.vmap.occ, f.vmap.tau)
+            if self._skip is not None and f.version == self._version + 1 and f.dirty is not None:
+                self._skip.update(f.vmap.occ, f.dirty)  # one fusion since: only around what it wrote
+            else:
+                self._skip = BlockSkipTables(f.vmap.occ, f.vmap.tau)
             max_range, step, parallel = self._args
             self._fr = FastRenderer(f.vmap, self.intrinsics, self.camera_height, max_range, step,
-                                    parallel, skip_tables=tables)
+                                    parallel, skip_tables=self._skip.tables)
             self._version = f.version
         return self._fr
 

@@ -208,6 +208,54 @@ def test_block_skip_tables_are_lower_bounds_and_render_identically(house_walk):
         assert np.array_equal(A.depth, B.depth) and np.array_equal(A.rgb, B.rgb)
 
 
+def test_incremental_skip_tables_equal_the_whole_rebuild_frame_by_frame(house_walk):
+    """FusedRenderer updates its block tables around what each fusion wrote (FusedMap.dirty):
+    after every frame they equal block_skip_tables of the whole map, and the dirty box holds
+    every cell whose occupancy changed."""
+    level, frames = house_walk
+    fused = FusedMap.empty(grid_for_level(level))
+    r = FusedRenderer(fused, HALF_CAMERA, parallel=False)
+    r.renderer()
+    skip = r._skip
+    for n, (pose, frame) in enumerate(frames[:60]):
+        before = fused.vmap.occ.copy()
+        fused.fuse(frame, pose, HALF_CAMERA)
+        i0, i1, j0, j1, k0, k1 = fused.dirty
+        changed = np.argwhere(before != fused.vmap.occ)
+        if len(changed):
+            assert (changed.min(axis=0) >= [i0, j0, k0]).all() and (changed.max(axis=0) <= [i1, j1, k1]).all()
+        fr = r.renderer()
+        assert r._skip is skip  # the incremental path, not a rebuild
+        d, d2 = block_skip_tables(fused.vmap.occ, fused.vmap.tau)
+        assert np.array_equal(fr.dist, d) and np.array_equal(fr.dist2, d2), f"frame {n}"
+    fused.fuse(frames[60][1], frames[60][0], HALF_CAMERA)
+    fused.fuse(frames[61][1], frames[61][0], HALF_CAMERA)  # two fusions since: a whole rebuild
+    fr = r.renderer()
+    assert r._skip is not skip and np.array_equal(fr.dist, block_skip_tables(fused.vmap.occ, fused.vmap.tau)[0])
+    fused.clear()
+    assert fused.dirty is None and not r.render(frames[0][0]).valid.any()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_block_flags_of_a_region_equal_the_whole_scan(seed):
+    from navbench.worldmodel.fusion_render import _block_flags, _block_flags_region
+
+    rng = np.random.default_rng(seed)
+    shape = (23, 18, 9)  # not multiples of the block: partial blocks at the far faces
+    occ = np.where(rng.random(shape) < 0.02, 0.9, 0.1).astype(np.float32)
+    for b in (2, 4):
+        whole = _block_flags(occ, 0.5, b)
+        for _ in range(20):
+            lo = np.array([rng.integers(0, n) for n in whole.shape], np.int64)
+            hi = np.array([rng.integers(l, n) for l, n in zip(lo, whole.shape)], np.int64)
+            flags = rng.random(whole.shape) < 0.5  # garbage inside the region, kept outside
+            outside = flags.copy()
+            _block_flags_region(occ, 0.5, b, flags, lo, hi)
+            inside = np.zeros(whole.shape, bool)
+            inside[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1, lo[2]:hi[2] + 1] = True
+            assert np.array_equal(flags[inside], whole[inside]) and np.array_equal(flags[~inside], outside[~inside])
+
+
 def test_fused_renderer_follows_the_map_and_clear_empties_it(house_walk):
     level, frames = house_walk
     fused = FusedMap.empty(grid_for_level(level))
