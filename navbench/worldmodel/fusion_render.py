@@ -2,9 +2,10 @@
 
 The fast renderer (:class:`~navbench.worldmodel.fastrender.FastRenderer`) skips empty space with
 two distance tables that cost ~100 ms to build exactly on the paper grid; an online map changes
-every frame, so :class:`FusedRenderer` rebuilds cheaper lower bounds of them
-(:func:`block_skip_tables`, a few ms) whenever the map changed. Lower bounds skip only samples
-that cannot cross, so the images are identical to those of the exact tables (tested).
+every frame, so :class:`FusedRenderer` keeps cheaper lower bounds of them
+(:func:`block_skip_tables`, a few ms) up to date whenever the map changed: around the cells one
+fusion wrote (:class:`BlockSkipTables`), or whole. Lower bounds skip only samples that cannot
+cross, so the images are identical to those of the exact tables (tested).
 """
 
 from __future__ import annotations
