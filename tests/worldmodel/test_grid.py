@@ -102,3 +102,30 @@ def test_cell_tolerance_scores_hand_made():
     prec, rec = cell_tolerance_scores(pred, true, 1)
     assert prec == 0.5 and rec == 1.0
     assert cell_tolerance_scores(pred, true, 0) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_compiled_slice_values_equal_the_numpy_reference_bit_for_bit(seed, room):
+    """occupancy_slice thresholds _slice_max, the compiled max over heights of trilinear f: the
+    same floats as slice_values_reference (numpy trilinear) on a random grid (values on both
+    sides of tau, heights below the first and above the last cell centre: clipped) and on a
+    voxelized level, for the band and the slice."""
+    from navbench.worldmodel.grid import _slice_max, band_heights, slice_values_reference
+    from navbench.worldmodel.gridspec import GridSpec
+
+    rng = np.random.default_rng(seed)
+    spec = GridSpec((-0.3, 0.2, 0.0), (2.1, 3.0, 1.2), (17, 23, 9))
+    occ = np.where(rng.random(spec.shape) < 0.03, 0.9, 0.1) + 0.05 * rng.random(spec.shape)  # sparse obstacles
+    rand = VoxelMap(spec, occ.astype(np.float32), np.zeros(spec.shape + (3,), np.float32), 0.5)
+    for vmap in (rand, voxelize_level(room)):
+        for mode, lo, hi, h in (("band", 0.05, 1.0, 0.5), ("band", -0.2, 1.5, 0.5), ("slice", 0.0, 0.0, 0.5),
+                                ("slice", 0.0, 0.0, 1.4)):
+            heights = band_heights(vmap.spec, mode, lo, hi, h)
+            ref = slice_values_reference(vmap, heights)
+            got = _slice_max(vmap.occ, np.asarray(vmap.spec.lo, np.float64), vmap.spec.size,
+                             vmap.spec.centres(0), vmap.spec.centres(1), np.asarray(heights, np.float64))
+            assert np.array_equal(got.view(np.uint64), ref.view(np.uint64))
+            occ2d, xs, ys = occupancy_slice(vmap, mode, lo, hi, h)
+            assert np.array_equal(occ2d, ref > vmap.tau)
+            if (lo, hi, h) in ((0.05, 1.0, 0.5), (0.0, 0.0, 0.5)):  # the body band and the camera slice
+                assert 0 < occ2d.mean() < 1  # obstacles and free space (the others may hit floor or ceiling)
