@@ -20,12 +20,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
 
-import numba as nb
 import numpy as np
 
 from navbench.errors import ArtifactError, ConfigError
@@ -207,6 +205,8 @@ def occupancy_slice(vmap: VoxelMap, mode: str = "band", z_low: float = 0.05,
     spec = vmap.spec
     xs, ys = spec.centres(0), spec.centres(1)
     heights = band_heights(spec, mode, z_low, z_high, height)
+    from navbench.worldmodel._slice import _slice_max  # numba: not on the CLI's --help path
+
     best = _slice_max(np.ascontiguousarray(vmap.occ, np.float32), np.asarray(spec.lo, np.float64),
                       np.asarray(spec.size, np.float64), xs, ys, np.asarray(heights, np.float64))
     return best > vmap.tau, xs, ys
@@ -214,8 +214,9 @@ def occupancy_slice(vmap: VoxelMap, mode: str = "band", z_low: float = 0.05,
 
 def slice_values_reference(vmap: VoxelMap, heights) -> np.ndarray:
     """``(nx, ny)``: the maximum of :func:`trilinear` ``f`` over ``heights`` at every ``xy`` cell
-    centre, in numpy (what :func:`occupancy_slice` thresholds; :func:`_slice_max` is its compiled
-    path, tested bit for bit against this)."""
+    centre, in numpy (what :func:`occupancy_slice` thresholds;
+    :func:`navbench.worldmodel._slice._slice_max` is its compiled path, tested bit for bit
+    against this)."""
     spec = vmap.spec
     xs, ys = spec.centres(0), spec.centres(1)
     best = None
@@ -224,39 +225,6 @@ def slice_values_reference(vmap: VoxelMap, heights) -> np.ndarray:
         f = trilinear(vmap.occ, spec, np.stack([X, Y, np.full_like(X, z)], axis=-1))
         best = f if best is None else np.maximum(best, f)
     return best
-
-
-@nb.njit(cache=True)
-def _slice_max(occ, lo, size, xs, ys, heights):
-    """:func:`slice_values_reference` compiled: per point the same expressions as
-    :func:`trilinear` (``u = (p - lo) / size - 0.5`` clipped, the 8 corners summed in the same
-    order), so the same floats, without its ~20 temporary arrays per height."""
-    nx, ny, nz = occ.shape
-    out = np.empty((xs.shape[0], ys.shape[0]))
-    for a in range(xs.shape[0]):
-        ux = min(max((xs[a] - lo[0]) / size[0] - 0.5, 0.0), nx - 1)
-        i = min(np.int64(math.floor(ux)), nx - 2)
-        tx = ux - i
-        for b in range(ys.shape[0]):
-            uy = min(max((ys[b] - lo[1]) / size[1] - 0.5, 0.0), ny - 1)
-            j = min(np.int64(math.floor(uy)), ny - 2)
-            ty = uy - j
-            best = 0.0
-            for h in range(heights.shape[0]):
-                uz = min(max((heights[h] - lo[2]) / size[2] - 0.5, 0.0), nz - 1)
-                k = min(np.int64(math.floor(uz)), nz - 2)
-                tz = uz - k
-                f = 0.0
-                for dx in range(2):
-                    wx = tx if dx else 1 - tx
-                    for dy in range(2):
-                        wy = ty if dy else 1 - ty
-                        for dz in range(2):
-                            wz = tz if dz else 1 - tz
-                            f = f + wx * wy * wz * np.float64(occ[i + dx, j + dy, k + dz])
-                best = f if h == 0 else max(best, f)
-            out[a, b] = best
-    return out
 
 
 # ------------------------------------------------------------------------------ files

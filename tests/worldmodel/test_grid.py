@@ -110,7 +110,8 @@ def test_compiled_slice_values_equal_the_numpy_reference_bit_for_bit(seed, room)
     same floats as slice_values_reference (numpy trilinear) on a random grid (values on both
     sides of tau, heights below the first and above the last cell centre: clipped) and on a
     voxelized level, for the band and the slice."""
-    from navbench.worldmodel.grid import _slice_max, band_heights, slice_values_reference
+    from navbench.worldmodel._slice import _slice_max
+    from navbench.worldmodel.grid import band_heights, slice_values_reference
     from navbench.worldmodel.gridspec import GridSpec
 
     rng = np.random.default_rng(seed)
