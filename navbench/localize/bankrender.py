@@ -126,14 +126,11 @@ def panoramas(render, points: np.ndarray, bins: int, ycs: np.ndarray, grey_weigh
     if len(points) == 0:
         return pano
     j0, j1, wr, scale, qbins, qi0, qw, counts, rots = _quadrant_tables(quad, bins, ycs)
-    # camera centres as FastRenderer.render_T computes them from camera_pose's translation
-    t = np.empty((len(points), 3))
-    t[:, 0] = [float(v) for v in points[:, 0]]
-    t[:, 1] = [float(v) for v in points[:, 1]]
+    t = np.empty((len(points), 3))  # camera_pose's translations
+    t[:, :2] = points
     t[:, 2] = render.camera_height
-    centres = np.ascontiguousarray((t - render._lo) * render._inv - 0.5)
-    inv = np.ascontiguousarray(np.broadcast_to(np.asarray(render._inv, np.float64), (3,)))
-    _panoramas_kernel(render.vmap.occ, render._col, render.dist, render.dist2, centres, inv, rots,
+    _panoramas_kernel(render.vmap.occ, render._col, render.dist, render.dist2, render.centre_index(t),
+                      render._inv, rots,
                       render.rays, render.step, render.n, render.vmap.tau, j0, j1, wr, scale, qbins,
                       qi0, qw, counts, float(grey_weight), kind == "inverse", float(max_range), pano)
     return pano

@@ -142,11 +142,10 @@ class SeenMap:
         tables are built once per view and shared by its renderers (the localiser makes two: the
         bank's and the refinement's). The online map's cheaper block tables render the same
         images but slower here: measured, 2026-11-26."""
-        from navbench.worldmodel.fastrender import SLAB, FastRenderer, skip_distance
+        from navbench.worldmodel.fastrender import FastRenderer, exact_skip_tables
 
         if self._tables is None:
-            self._tables = (skip_distance(self.vmap.occ, self.vmap.tau),
-                            skip_distance(self.vmap.occ, self.vmap.tau, slab=SLAB))
+            self._tables = exact_skip_tables(self.vmap.occ, self.vmap.tau)
         return FastRenderer(self.vmap, intrinsics, camera_height, max_range, step, skip_tables=self._tables)
 
     def content_hash(self) -> str:  # pragma: no cover - never cached

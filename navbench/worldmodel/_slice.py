@@ -3,10 +3,10 @@
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
+
+from navbench.worldmodel.fastrender import _cell  # the renderers' clamped index, the same floats
 
 
 @nb.njit(cache=True)
@@ -18,18 +18,12 @@ def _slice_max(occ, lo, size, xs, ys, heights):
     nx, ny, nz = occ.shape
     out = np.empty((xs.shape[0], ys.shape[0]))
     for a in range(xs.shape[0]):
-        ux = min(max((xs[a] - lo[0]) / size[0] - 0.5, 0.0), nx - 1)
-        i = min(np.int64(math.floor(ux)), nx - 2)
-        tx = ux - i
+        i, tx = _cell((xs[a] - lo[0]) / size[0] - 0.5, nx)
         for b in range(ys.shape[0]):
-            uy = min(max((ys[b] - lo[1]) / size[1] - 0.5, 0.0), ny - 1)
-            j = min(np.int64(math.floor(uy)), ny - 2)
-            ty = uy - j
+            j, ty = _cell((ys[b] - lo[1]) / size[1] - 0.5, ny)
             best = 0.0
             for h in range(heights.shape[0]):
-                uz = min(max((heights[h] - lo[2]) / size[2] - 0.5, 0.0), nz - 1)
-                k = min(np.int64(math.floor(uz)), nz - 2)
-                tz = uz - k
+                k, tz = _cell((heights[h] - lo[2]) / size[2] - 0.5, nz)
                 f = 0.0
                 for dx in range(2):
                     wx = tx if dx else 1 - tx

@@ -109,6 +109,11 @@ def skip_distance(occ: np.ndarray, tau: float, slab: int | None = None, cap: int
     return np.minimum(d, cap)
 
 
+def exact_skip_tables(occ: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
+    """The renderer's two exact tables, :func:`skip_distance` without and with ``slab=SLAB``."""
+    return skip_distance(occ, tau), skip_distance(occ, tau, slab=SLAB)
+
+
 @nb.njit(cache=True, inline="always")
 def _cell(u, n):
     """Clamped continuous index -> (i0, t) with ``0 <= i0 <= n - 2``."""
@@ -341,7 +346,7 @@ class LazyFrame:
         T_wc = np.asarray(T_wc, np.float64)
         self.renderer = renderer
         self.T_wc = T_wc
-        self._u_c = (T_wc[:3, 3] - renderer._lo) * renderer._inv - 0.5
+        self._u_c = renderer.centre_index(T_wc[:3, 3])
         self._R = np.ascontiguousarray(T_wc[:3, :3])
         self._depth32 = np.zeros((H, W), np.float32)
         self._rgb32 = np.zeros((H, W, 3), np.float32)
@@ -422,14 +427,17 @@ class FastRenderer:
         self.n = int(round(max_range / self.step))
         self.rays = _rays(intrinsics)
         if skip_tables is None:
-            self.dist = skip_distance(vmap.occ, vmap.tau)
-            self.dist2 = skip_distance(vmap.occ, vmap.tau, slab=SLAB)
+            self.dist, self.dist2 = exact_skip_tables(vmap.occ, vmap.tau)
         else:  # (dist, dist2) given: any lower bounds of skip_distance's tables render the same
             self.dist, self.dist2 = skip_tables
         spec = vmap.spec
         self._lo = np.asarray(spec.lo, np.float64)
         self._inv = 1.0 / spec.size
         self._col = np.ascontiguousarray(vmap.col, np.float32)
+
+    def centre_index(self, centres: np.ndarray) -> np.ndarray:
+        """Continuous cell indices of camera centres ``(..., 3)`` (world m), as the kernel reads them."""
+        return (centres - self._lo) * self._inv - 0.5
 
     def render_T(self, T_wc: np.ndarray) -> Frame:
         """Render from an arbitrary camera-to-world transform ``T_wc`` (4x4, OpenCV camera axes)."""
@@ -438,7 +446,7 @@ class FastRenderer:
         depth = np.empty((H, W), np.float32)
         rgb = np.empty((H, W, 3), np.float32)
         valid = np.empty((H, W), np.bool_)
-        u_c = (T_wc[:3, 3] - self._lo) * self._inv - 0.5
+        u_c = self.centre_index(T_wc[:3, 3])
         self._kernel(self.vmap.occ, self._col, self.dist, self.dist2, u_c, self._inv,
                       np.ascontiguousarray(T_wc[:3, :3]), self.rays, self.step, self.n,
                       self.vmap.tau, depth, rgb, valid)

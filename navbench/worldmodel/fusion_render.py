@@ -64,11 +64,7 @@ def block_skip_tables(occ: np.ndarray, tau: float, block: int = SKIP_BLOCK,
     are identical to those of the exact tables; building these costs a few milliseconds
     instead of the exact tables' ~100 (the online map changes every frame).
     """
-    _check_block(block)
-    occ = np.ascontiguousarray(occ, np.float32)
-    cells = _block_cells(_block_flags(occ, float(tau), int(block)), int(block), cap)
-    shape = np.array([n - 1 for n in occ.shape], np.int64)
-    return _expand_blocks(cells[0], shape, int(block)), _expand_blocks(cells[1], shape, int(block))
+    return BlockSkipTables(occ, tau, block, cap).tables
 
 
 def _check_block(block: int) -> None:
@@ -130,22 +126,18 @@ def _block_flags_region(occ, tau, b, flags, lo, hi):
 @nb.njit(cache=True)
 def _expand_changed(new, old, out, b):
     """Write into ``out`` (the expansion of ``old``, :func:`_expand_blocks`) the cells of every
-    block whose value differs in ``new``, so that ``out`` becomes the expansion of ``new``;
-    returns the number of blocks written."""
+    block whose value differs in ``new``, so that ``out`` becomes the expansion of ``new``."""
     n0, n1, n2 = out.shape
-    changed = 0
     for bi in range(new.shape[0]):
         for bj in range(new.shape[1]):
             for bk in range(new.shape[2]):
                 v = new[bi, bj, bk]
                 if v == old[bi, bj, bk]:
                     continue
-                changed += 1
                 for i in range(bi * b, min(bi * b + b, n0)):
                     for j in range(bj * b, min(bj * b + b, n1)):
                         for k in range(bk * b, min(bk * b + b, n2)):
                             out[i, j, k] = v
-    return changed
 
 
 class BlockSkipTables:
