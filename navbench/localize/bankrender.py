@@ -15,8 +15,6 @@ renderer takes the reference loop.
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 
@@ -27,37 +25,26 @@ from navbench.worldmodel.fastrender import FastRenderer, _render_pixel
 
 def _quadrant_tables(quad: Intrinsics, bins: int, ycs: np.ndarray):
     """What :func:`~navbench.localize.signature.column_signature` and
-    :func:`~navbench.localize.signature.resample_columns` compute without the image, with their
-    expressions: row indices and weights, the per-column range factor, and per quadrant the bins
-    it writes (in the reference's order, a later quadrant overwriting a shared boundary bin)
-    with their column indices and weights."""
-    H, W = quad.shape
-    v = np.clip(quad.cy + np.asarray(ycs) * quad.fy, 0.0, H - 1.0)
-    j0 = np.floor(v).astype(np.int64)
-    j1 = np.minimum(j0 + 1, H - 1)
-    wr = v - j0
-    xc = (np.arange(W) - quad.cx) / quad.fx
-    scale = np.sqrt(1.0 + xc * xc)
-    b = np.arange(bins)
+    :func:`~navbench.localize.signature.resample_columns` compute without the image (the same
+    helpers): row indices and weights, the per-column range factor, and per quadrant the bins it
+    writes (in the reference's order, a later quadrant overwriting a shared boundary bin) with
+    their column indices and weights, and its rotation."""
+    j0, j1, wr = sig.row_weights(quad, ycs)
     qbins = np.full((4, bins), -1, np.int64)
     qi0 = np.zeros((4, bins), np.int64)
     qw = np.zeros((4, bins))
     counts = np.zeros(4, np.int64)
     rots = np.empty((4, 3, 3))
     for q in range(4):
-        head = q * math.pi / 2
-        rel = (b * 2 * math.pi / bins - head + math.pi) % (2 * math.pi) - math.pi
-        sel = np.abs(rel) <= math.pi / 4 + 1e-12
-        angles = rel[sel]
-        u = np.clip(quad.cx - quad.fx * np.tan(angles), 0.0, quad.width - 1.0)
-        i0 = np.minimum(np.floor(u).astype(int), quad.width - 2)
-        n = int(sel.sum())
+        head, sel, angles = sig.quadrant_bins(bins, q)
+        i0, w = sig.column_weights(quad, angles)
+        n = len(angles)
         counts[q] = n
-        qbins[q, :n] = b[sel]
+        qbins[q, :n] = np.flatnonzero(sel)
         qi0[q, :n] = i0
-        qw[q, :n] = u - i0
+        qw[q, :n] = w
         rots[q] = camera_rotation(head)
-    return j0, j1, wr, scale, qbins, qi0, qw, counts, rots
+    return j0, j1, wr, sig.range_scale(quad), qbins, qi0, qw, counts, rots
 
 
 @nb.njit(cache=True, parallel=True)

@@ -68,28 +68,45 @@ def column_signature(frame: Frame, intr: Intrinsics, ycs: np.ndarray,
     """Per-column signature ``(2 * len(ycs), W)`` float64 of ``frame``: the depth channel
     (:func:`range_feature` of the horizontal range) at each elevation, then ``grey_weight`` x
     grey level at each (rows interpolated linearly)."""
-    H, W = intr.shape
-    v = np.clip(intr.cy + np.asarray(ycs) * intr.fy, 0.0, H - 1.0)
-    j0 = np.floor(v).astype(int)
-    j1 = np.minimum(j0 + 1, H - 1)
-    w = (v - j0)[:, None]
-    xc = (np.arange(W) - intr.cx) / intr.fx
+    j0, j1, w = row_weights(intr, ycs)
+    w = w[:, None]
     valid = np.asarray(frame.valid, bool) & np.isfinite(frame.depth)
-    r = np.where(valid, frame.depth, 1.0) * np.sqrt(1.0 + xc * xc)
+    r = np.where(valid, frame.depth, 1.0) * range_scale(intr)
     inv = range_feature(r, valid, kind, max_range)
     grey = np.asarray(frame.rgb, np.float64).mean(axis=2) * grey_weight
-    out = np.empty((2 * len(ycs), W))
+    out = np.empty((2 * len(ycs), intr.width))
     out[: len(ycs)] = (1 - w) * inv[j0] + w * inv[j1]
     out[len(ycs):] = (1 - w) * grey[j0] + w * grey[j1]
     return out
 
 
+def row_weights(intr: Intrinsics, ycs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(j0, j1, w)``: the image rows below and above each elevation ``ycs`` and the weight of
+    the second (:func:`column_signature` interpolates rows linearly)."""
+    H = intr.height
+    v = np.clip(intr.cy + np.asarray(ycs) * intr.fy, 0.0, H - 1.0)
+    j0 = np.floor(v).astype(int)
+    return j0, np.minimum(j0 + 1, H - 1), v - j0
+
+
+def range_scale(intr: Intrinsics) -> np.ndarray:
+    """``sqrt(1 + x_c^2)`` per column: z-depth to horizontal range."""
+    xc = (np.arange(intr.width) - intr.cx) / intr.fx
+    return np.sqrt(1.0 + xc * xc)
+
+
+def column_weights(intr: Intrinsics, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(i0, w)``: the columns left of ``u = cx - fx tan(angle)`` for relative headings
+    ``angles`` and the weight of the next one (:func:`resample_columns`)."""
+    u = np.clip(intr.cx - intr.fx * np.tan(angles), 0.0, intr.width - 1.0)
+    i0 = np.minimum(np.floor(u).astype(int), intr.width - 2)
+    return i0, u - i0
+
+
 def resample_columns(sig: np.ndarray, intr: Intrinsics, angles: np.ndarray) -> np.ndarray:
     """``sig (C, W)`` at relative headings ``angles`` (rad, counter-clockwise = image left),
     interpolated linearly between the columns ``u = cx - fx tan(angle)``."""
-    u = np.clip(intr.cx - intr.fx * np.tan(angles), 0.0, intr.width - 1.0)
-    i0 = np.minimum(np.floor(u).astype(int), intr.width - 2)
-    w = u - i0
+    i0, w = column_weights(intr, angles)
     return sig[:, i0] * (1 - w) + sig[:, i0 + 1] * w
 
 
@@ -120,14 +137,21 @@ def panorama(render, xy, bins: int, ycs: np.ndarray, grey_weight: float,
     """The 360-degree signature ``(C, bins)`` at position ``xy``: four renders
     ``render(pose) -> Frame`` (camera ``quad``) at headings 0, 90, 180, 270 degrees."""
     out = np.empty((2 * len(ycs), bins))
-    b = np.arange(bins)
     for q in range(4):
-        head = q * math.pi / 2
-        rel = (b * 2 * math.pi / bins - head + math.pi) % (2 * math.pi) - math.pi
-        sel = np.abs(rel) <= math.pi / 4 + 1e-12
+        head, sel, angles = quadrant_bins(bins, q)
         sig = column_signature(render((xy[0], xy[1], head)), quad, ycs, grey_weight, kind, max_range)
-        out[:, sel] = resample_columns(sig, quad, rel[sel])
+        out[:, sel] = resample_columns(sig, quad, angles)
     return out
+
+
+def quadrant_bins(bins: int, q: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(heading, selected, angles)`` of quadrant render ``q`` of :func:`panorama`: its heading
+    ``q pi / 2``, the bins it fills (within 45 degrees of it; a later quadrant overwrites a shared
+    boundary bin) and their angles relative to it."""
+    head = q * math.pi / 2
+    rel = (np.arange(bins) * 2 * math.pi / bins - head + math.pi) % (2 * math.pi) - math.pi
+    sel = np.abs(rel) <= math.pi / 4 + 1e-12
+    return head, sel, rel[sel]
 
 
 @njit(cache=True, fastmath=True)
