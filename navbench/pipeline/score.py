@@ -6,9 +6,10 @@ single value recorded the first time it completed (reruns skip done keys). A cel
 its task set, so ``--tasks 2`` then ``--tasks 4`` store tasks 0 and 1 under two cells: episodes
 are therefore counted once per (setup, task, seed) (:func:`with_identities`: the setup is the
 cell without its task set, the task is its start and target), the first stored row kept. ``run``
-narrows this to the episodes a given run inserted (``"latest"``: the newest run that stored
-episodes) -- note that a resumed run owns only the episodes it added, so a measurement resumed
-over several runs is selected by listing them (``"4,5,6"``).
+narrows this to the episodes given runs inserted (:mod:`navbench.pipeline.db.resume`): a
+resumed run owns only the episodes it added, so ``"latest"`` is the newest run that stored
+episodes with the interrupted runs of the same configuration it resumed, and explicit ids are
+literal (``"4,5,6"``).
 
 Per group (level, estimator, noise; plus ``level = "all"`` pooled over levels):
 
@@ -140,23 +141,9 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
     """The episodes that count (see the module docstring), optionally of one run, level(s) and
     cells (``cell_keys``: a run's grid); the selection comes before the once-per-(setup, task,
     seed) rule, so a run's own cells keep all their episodes."""
-    run_ids = None
-    if run is not None and str(run) != "all":
-        if str(run) == "latest":
-            runs = db.episodes_frame()["run_id"]
-            if runs.empty:
-                raise DatabaseError(f"no episodes stored in {db.display_url}")
-            run_ids = [int(runs.max())]
-        else:
-            try:
-                run_ids = sorted({int(v) for v in str(run).split(",")})
-            except ValueError:
-                raise DatabaseError(f"--run must be a run id, comma-separated run ids (a measurement "
-                                    f"resumed over several runs), 'latest' or 'all', not {run!r}") from None
-            known = set(db.runs_frame()["id"])
-            missing = [r for r in run_ids if r not in known]
-            if missing:
-                raise DatabaseError(f"no run with id {missing[0]} in {db.display_url}")
+    from navbench.pipeline.db.resume import resolve_run_ids
+
+    run_ids = resolve_run_ids(db, run)
     levels = [level] if isinstance(level, str) else level
     frame = db.episodes_frame(run_ids=run_ids, level=levels or None)
     if cell_keys is not None and not frame.empty:

@@ -132,7 +132,7 @@ def export_trajectories(out_dir, db, store=None, *, run: int | None = None, leve
 
     plus ``index.csv`` (one line per pair). Poses are the camera poses of the planar poses at the
     camera height (the convention of ``groundtruth.txt``); pose ``t`` has timestamp ``t * dt``.
-    Selection (each ``None`` = all; a value or a list): ``run`` id, ``level``, ``estimator``,
+    Selection (each ``None`` = all; a value or a list): ``run`` id(s), ``level``, ``estimator``,
     ``noise``, ``task`` (task id, or trajectory index of a study). A selection that matches
     nothing, or whose trajectories are no longer in the cache, is one :class:`ConfigError`.
     """
@@ -153,7 +153,7 @@ def export_trajectories(out_dir, db, store=None, *, run: int | None = None, leve
         from navbench.pipeline.cache import ArtifactStore
 
         store = ArtifactStore("results/cache")
-    runs = None if run is None else [int(run)]
+    runs = None if run is None else ([int(run)] if isinstance(run, (int, str)) else [int(r) for r in run])
     sel = {"level": _as_list(level), "estimator": _as_list(estimator), "noise": _as_list(noise)}
     tasks = None if task is None else [int(t) for t in _as_list(task)]
     pairs: list[tuple] = []  # (meta, true (T+1, 3), est (T+1, 3), camera height)

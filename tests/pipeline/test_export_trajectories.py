@@ -52,7 +52,7 @@ def test_selections_that_match_nothing(study):
     for args, names in ((("--level", "house-9"), ("level house-9", "no stored trajectory")),
                         (("--estimator", "ours"), ("estimator ours",)),
                         (("--source", "episodes"), ("source episodes",)),
-                        (("--run", "99"), ("run 99",)),
+                        (("--run", "99"), ("--run", "no run with id 99")),
                         (("--task", "7"), ("task 7",))):
         res = nb("export-trajectories", "out", *args)
         assert_clean_error(res, *names)

@@ -38,18 +38,23 @@ def runs(
     last: int = typer.Option(20, "--last", min=1, help="Show the N most recent runs."),
     db: str = _DB_OPTION,
 ):
-    """List runs: id, profile, command, status, start, duration, git commit, host."""
+    """List runs: id, profile, command, status, start, duration, episodes stored, the earlier
+    runs it resumed (interrupted runs of the same setup: `score --run latest` takes them too),
+    git commit, host."""
     from rich.table import Table
 
     from navbench.pipeline.db import ResultsDB
 
     with ResultsDB(db, create=False) as rdb:
-        frame = rdb.runs_frame().tail(last)
+        every = rdb.runs_frame()
+        frame = every.tail(last)
         episodes = rdb.episodes_frame()
     per_run = episodes.groupby("run_id").size() if not episodes.empty else {}
     table = Table(title=f"{len(frame)} most recent runs")
+    from navbench.pipeline.db.resume import resume_chain
+
     for col in ("id", "profile", "command", "status", "started (UTC)", "seconds", "episodes",
-                "commit", "host"):
+                "resumes", "commit", "host"):
         table.add_column(col, justify="right" if col in ("id", "seconds", "episodes") else "left")
     for _, r in frame.iterrows():
         secs = "" if r["finished"] is None or r["finished"] != r["finished"] else \
@@ -57,7 +62,9 @@ def runs(
         # profile, command line and host are user text: printed literally, never as markup
         table.add_row(str(r["id"]), escape(str(r["profile"])), escape(str(r["command"])),
                       escape(str(r["status"])), r["started"].strftime("%Y-%m-%d %H:%M:%S"), secs,
-                      str(int(per_run.get(r["id"], 0))), escape((r["git_commit"] or "")[:10]),
+                      str(int(per_run.get(r["id"], 0))),
+                      ", ".join(map(str, resume_chain(every, int(r["id"]))[:-1])),
+                      escape((r["git_commit"] or "")[:10]),
                       escape(str(r["host"])))
     console.print(table)
 

@@ -14,7 +14,9 @@ def register(app: typer.Typer) -> None:
     @app.command("export-trajectories")
     def export_trajectories_cmd(
         out: Path = typer.Argument(..., metavar="DIR", help="Output directory (new or empty)."),
-        run: str = typer.Option(None, "--run", metavar="ID|latest", help="Only this run's rows."),
+        run: str = typer.Option(None, "--run", metavar="ID[,ID..]|latest",
+                                 help="Only these runs' rows ('latest': the newest run, with the "
+                                 "interrupted runs it resumed)."),
         level: str = typer.Option(None, "--level", help="Comma-separated level names."),
         estimator: str = typer.Option(None, "--estimator", help="Comma-separated estimator names."),
         noise: str = typer.Option(None, "--noise", help="Comma-separated noise levels (track-eval "
@@ -47,16 +49,9 @@ def register(app: typer.Typer) -> None:
         except ValueError:
             raise ConfigError(f"--task: expected comma-separated whole numbers, got {task!r}") from None
         with open_db(db) as rdb:
-            run_id = None
-            if run == "latest":
-                run_id = rdb.latest_run_id()
-                if run_id is None:
-                    raise ConfigError(f"--run latest: no run in {rdb.display_url}")
-            elif run is not None:
-                try:
-                    run_id = int(run)
-                except ValueError:
-                    raise ConfigError(f"--run: expected a run id or latest, got {run!r}") from None
+            from navbench.pipeline.db.resume import resolve_run_ids
+
+            run_id = resolve_run_ids(rdb, run, latest="any")
             pairs = export_trajectories(out, rdb, run=run_id, level=parse_list(level) or None,
                                         estimator=parse_list(estimator) or None,
                                         noise=parse_list(noise) or None, task=tasks, source=source, dt=dt)

@@ -18,7 +18,8 @@ def report(
     levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
     trajectories: int = typer.Option(3, "--trajectories", min=0, max=1000, help="Trajectories drawn per level."),
-    run: str = typer.Option("all", "--run", help="Episodes of one run (an id or 'latest'), of several (comma-separated ids), or 'all'."),
+    run: str = typer.Option("all", "--run", help="Episodes of one run (an id, or 'latest' with the "
+                       "interrupted runs it resumed), of several (comma-separated ids), or 'all'."),
     preset: str = typer.Option(None, "--preset", help="Scoring preset: paper, nrns or habitat "
                                "(navbench score --help). Default: paper; nrns when every selected "
                                "episode is an unknown-house one.", show_default=False),
@@ -48,6 +49,13 @@ def report(
     dest = check_report_dir(out, "--out", protected)
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
+        from navbench.pipeline.db.resume import describe_selection, resolve_run_ids
+
+        chain = describe_selection(resolve_run_ids(rdb, run), run)
+        if chain:
+            from navbench.cli._common import err_console
+
+            err_console.print(escape(chain), markup=True)
         if preset is None:  # score's default: nrns for unknown-house episodes alone, else paper
             from navbench.cli._common import err_console
             from navbench.pipeline.score import select_episodes

@@ -29,7 +29,8 @@ def _fmt(value: float, ci_low: float, ci_high: float, digits: int) -> str:
 def score(
     run: str = typer.Option("all", "--run", help="A run id, comma-separated run ids (a measurement "
                             "resumed over several runs: 4,5,6), 'latest' (the newest run that stored "
-                            "episodes) or 'all' (every stored episode, once per cell/task/seed)."),
+                            "episodes, with the interrupted runs of its setup that it resumed) or 'all' "
+                            "(every stored episode, once per cell/task/seed)."),
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
@@ -59,6 +60,7 @@ def score(
     from rich.markup import escape
 
     from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.db.resume import describe_selection, resolve_run_ids
     from navbench.cli._common import err_console
     from navbench.nav.presets import get_preset
     from navbench.pipeline.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
@@ -69,9 +71,12 @@ def score(
         get_preset(preset, "--preset")  # before opening the database
     with ResultsDB(db, create=False) as rdb:
         frame = select_episodes(rdb, run=run, level=parse_list(level) or None)
+        chain = describe_selection(resolve_run_ids(rdb, run), run)
         preset, mixed = (preset, None) if preset is not None else default_preset(frame)
         table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed,
                                      preset=preset)
+    if chain:
+        err_console.print(escape(chain), markup=True)
     if mixed:
         err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
     warning = mixed_setups_warning(table)
