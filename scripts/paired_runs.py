@@ -8,7 +8,12 @@ Matches episodes of runs A and B on (level, task id, seed, noise, estimator): wi
 estimator and noise the number of pairs, both mean SPLs and successes, and the mean of B − A SPL
 with a 95 % percentile bootstrap interval stratified by level (4000 resamples, seed 0).
 ``--b-db``: runs B from another SQLite file; ``--estimators A:B``: pair estimator A of runs A
-with estimator B of runs B on the same (level, task id, seed, noise) instead.
+with estimator B of runs B on the same (level, task id, seed, noise) instead. ``--preset``
+(paper, nrns, habitat): success and SPL recomputed under that scoring preset from the stored
+columns (:func:`navbench.nav.presets.preset_terms`, as ``navbench score --preset``) instead of
+the stored (paper) ones; then the success difference gets the same bootstrap interval.
+
+    python scripts/paired_runs.py --db results/table4.db --a 1 --b 2 --preset nrns   # Table 4's rows
 """
 
 from __future__ import annotations
@@ -22,10 +27,18 @@ import pandas as pd
 KEY = ["level", "task_id", "seed", "noise", "estimator"]
 
 
-def runs_frame(con, runs: list[int], estimator: str | None = None) -> pd.DataFrame:
-    q = ("SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success FROM episodes "
+def runs_frame(con, runs: list[int], estimator: str | None = None, preset: str | None = None) -> pd.DataFrame:
+    q = ("SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success, end_reason, "
+         "steps, path_length, optimal_length, final_dist_m, final_geo_m FROM episodes "
          f"WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
     df = pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last")
+    if preset is not None:
+        from navbench.nav.presets import preset_terms
+
+        t = preset_terms(preset, end_reason=df.end_reason.to_numpy(), steps=df.steps.to_numpy(),
+                         path_length=df.path_length.to_numpy(), optimal_length=df.optimal_length.to_numpy(),
+                         final_dist_m=df.final_dist_m.to_numpy(float), final_geo_m=df.final_geo_m.to_numpy(float))
+        df["success"], df["spl_term"] = t["success"].astype(float), t["spl_term"]
     if estimator is not None:  # pair across estimators: the key without it, under a joint name
         df = df[df.estimator == estimator]
     return df.set_index(KEY)
@@ -39,6 +52,8 @@ def main() -> None:
     ap.add_argument("--b-db", default=None, help="SQLite file of runs B [default: --db]")
     ap.add_argument("--estimators", default=None, metavar="A:B",
                     help="pair estimator A of runs A with estimator B of runs B")
+    ap.add_argument("--preset", default=None, choices=["paper", "nrns", "habitat"],
+                    help="recompute success and SPL under this scoring preset")
     args = ap.parse_args()
     ea = eb = None
     if args.estimators is not None:
@@ -46,8 +61,9 @@ def main() -> None:
             ap.error("--estimators: give A:B, e.g. ours:gt")
         ea, eb = args.estimators.split(":")
     con = sqlite3.connect(args.db)
-    a = runs_frame(con, [int(r) for r in args.a.split(",")], ea)
-    b = runs_frame(sqlite3.connect(args.b_db) if args.b_db else con, [int(r) for r in args.b.split(",")], eb)
+    a = runs_frame(con, [int(r) for r in args.a.split(",")], ea, args.preset)
+    b = runs_frame(sqlite3.connect(args.b_db) if args.b_db else con, [int(r) for r in args.b.split(",")], eb,
+                   args.preset)
     if ea is not None:
         a = a.rename(index={ea: f"{ea}:{eb}"}, level="estimator")
         b = b.rename(index={eb: f"{ea}:{eb}"}, level="estimator")
@@ -58,8 +74,16 @@ def main() -> None:
         groups = [g.to_numpy() for _, g in d.groupby(level="level")]
         boots = [np.mean(np.concatenate([rng.choice(g, len(g)) for g in groups])) for _ in range(4000)]
         lo, hi = np.percentile(boots, [2.5, 97.5])
-        print(f"{est:9s} {noise:5s} pairs {len(d):4d}  SPL A {s.spl_term_a.mean():.3f} B {s.spl_term_b.mean():.3f} "
-              f"B-A {d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}]  success A {s.success_a.mean():.3f} B {s.success_b.mean():.3f}")
+        line = (f"{est:9s} {noise:5s} pairs {len(d):4d}  SPL A {s.spl_term_a.mean():.3f} B {s.spl_term_b.mean():.3f} "
+                f"B-A {d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}]  success A {s.success_a.mean():.3f} B {s.success_b.mean():.3f}")
+        if args.preset is not None:
+            ds = s.success_b.astype(float) - s.success_a.astype(float)
+            sg = [g.to_numpy() for _, g in ds.groupby(level="level")]
+            sb = [np.mean(np.concatenate([rng.choice(g, len(g)) for g in sg])) for _ in range(4000)]
+            slo, shi = np.percentile(sb, [2.5, 97.5])
+            line += (f" B-A {ds.mean():+.3f} [{slo:+.3f}, {shi:+.3f}]; only A {(ds < 0).sum()}, only B {(ds > 0).sum()}"
+                     f"  ({args.preset})")
+        print(line)
 
 
 if __name__ == "__main__":
