@@ -139,6 +139,13 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
     from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
 
     progress = progress or SilentProgress()
+    if ctx.db is not None:
+        from navbench.pipeline.db.resume import resume_chain
+
+        earlier = resume_chain(ctx.db.runs_frame(), run_id)[:-1]
+        if earlier:
+            ctx.log(f"run {run_id} resumes run(s) {', '.join(map(str, earlier))} of the same setup, "
+                    "which did not finish (score --run latest takes them together)")
     inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
     cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
                            seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),

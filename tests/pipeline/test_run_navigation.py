@@ -98,6 +98,12 @@ def test_interrupt_then_rerun_gives_the_uninterrupted_result(tmp_path, reference
     # Ctrl-C closes the run as interrupted; a killed run never gets to close itself, and the
     # next command, finding its process gone, marks it interrupted
     assert statuses == ["interrupted", "done"]
+    assert "run 2 resumes run(s) 1 of the same setup" in res.stdout + res.stderr
+    from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.db.resume import resolve_run_ids
+
+    with ResultsDB(f"sqlite:///{db}") as rdb:  # the measurement is both runs' episodes
+        assert resolve_run_ids(rdb, "latest") == [1, 2]
 
     from navbench.cli.main import app
 
@@ -108,6 +114,7 @@ def test_interrupt_then_rerun_gives_the_uninterrupted_result(tmp_path, reference
     finally:
         os.chdir(cwd)
     assert again.exit_code == 0 and "stored 0 new episodes" in again.output
+    assert "resumes" not in again.output  # run 2 finished: a new run of it resumes nothing
     assert episodes(db) == reference
 
 
