@@ -198,3 +198,30 @@ def test_cli_goal_image_then_score_names_goal_and_preset(tmp_path, monkeypatch):
     doc = json.loads(res.stdout)
     assert {r["goal"] for r in doc["scores"]} == {"image", "point"}
     assert {r["preset"] for r in doc["scores"] + doc["by_difficulty"]} == {"habitat"}
+
+
+def test_goals_localised_in_a_pool_are_the_serial_ones(image_run):
+    """``ctx.workers > 1`` splits the goal localisations over a process pool: the same artifact
+    key and the same goals (pose, status, confidence, error) as the serial loop; only the
+    per-goal timing ``ms`` may differ."""
+    from dataclasses import replace
+
+    from navbench.pipeline.run import stage_context
+    from navbench.pipeline.stages.goals import ImageGoalConfig, load_goals
+    from navbench.pipeline.stages.inputs import with_image_goals
+
+    _, result = image_run
+    stored = result.inputs[0]
+    serial = load_goals(stored.goals.path)
+    ctx = stage_context(force={"image-goals"})
+    ctx.workers = 2
+    pooled = with_image_goals(ctx, replace(stored, goals=None), ImageGoalConfig(camera="half"))
+    assert pooled.goals.key == stored.goals.key and not pooled.goals.cached
+    parallel = load_goals(pooled.goals.path)
+
+    def strip(goals):
+        return {k: {f: v for f, v in g.items() if f != "ms"} for k, g in goals.items()}
+
+    assert sorted(parallel) == sorted(serial) == [0, 1, 2]
+    assert strip(parallel) == strip(serial)
+    assert all(g["ms"] > 0 for g in parallel.values())

@@ -26,6 +26,8 @@ class StageContext:
     ``update(done, total=None, loss=None)`` sets the bar to ``done`` items (``loss``: shown
     for fits). It matches the ``progress`` callbacks of ``collect_views`` and ``fit_map``.
     ``levels_dir`` / ``tasks_dir``: where committed level and task files are looked up.
+    ``workers``: local processes a stage may split independent items over (the image goals'
+    localisations); how a stage runs, never part of a key: its artifact is the same for any.
     """
 
     store: ArtifactStore
@@ -38,6 +40,7 @@ class StageContext:
     used: list = field(default_factory=list)   # (stage, key) pairs touched: gc roots
     # (stage, seconds, cached) of every run() call: the per-stage breakdown (pipeline.breakdown)
     timings: list = field(default_factory=list)
+    workers: int = 1
 
     def forced(self, stage: str) -> bool:
         return "*" in self.force or stage in self.force

@@ -86,20 +86,27 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
         from navbench.plan.tasks import load_tasks
 
         intr = camera_by_name(cfg.camera)
-        lv = load_level_ref(level)
-        localizer, _ = load_localizer(ctx, _MapHandle(vmap), intr, CAMERA_HEIGHT, cfg.localizer_config(),
-                                      level=level)
+        localizer, bank = load_localizer(ctx, _MapHandle(vmap), intr, CAMERA_HEIGHT, cfg.localizer_config(),
+                                         level=level)
         task_list = load_tasks(tasks.path)
         update = ctx.progress(f"image goals {level.name}", len(task_list))
         out = {}
-        for i, t in enumerate(task_list):
-            frame = render_goal(lv, t, intr, cfg.seed)
-            loc = classify(localizer.localize(frame, k=2), t.target, cfg.rules())
-            out[str(t.id)] = {"heading": goal_heading(cfg.seed, t.id), "pose": loc.pose,
-                              "status": loc.status, "confidence": _num(loc.confidence),
-                              "error_m": _num(loc.error_m),
-                              "ms": float(localizer.last_timing.get("total", 0.0))}
-            update(i + 1)
+        workers = min(int(ctx.workers), len(task_list))
+        if workers > 1:  # the same goals: each task's localisation depends on nothing else
+            from navbench.pipeline.executor import LocalExecutor
+
+            size = max(1, min(8, len(task_list) // (4 * workers)))
+            specs = [(level.path, level.name, vmap.path, bank.path, cfg, task_list[i:i + size])
+                     for i in range(0, len(task_list), size)]
+            with LocalExecutor(workers) as ex:
+                for part in ex.map_unordered(localize_goals, specs):
+                    out.update(part)
+                    update(len(out))
+        else:
+            lv = load_level_ref(level)
+            for i, t in enumerate(task_list):
+                out.update(_localize_goal(localizer, lv, intr, cfg, t))
+                update(i + 1)
         (d / GOALS_FILE).write_text(json.dumps(out, indent=1, sort_keys=True))
 
     from navbench.config import config_hash
@@ -108,6 +115,49 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
               "localizer": config_hash(cfg.localizer_settings())}  # the resolved localiser, since 2026-11-26
     path, key, cached = ctx.run("image-goals", cfg, inputs, compute)
     return Ref("image-goals", key, path / GOALS_FILE, cached, level.name)
+
+
+def _localize_goal(localizer, level, intr, cfg: ImageGoalConfig, task) -> dict:
+    """``{task id: goal record}`` of one task: its goal image rendered and localised."""
+    from navbench.nav.imagegoal import classify, goal_heading, render_goal
+
+    frame = render_goal(level, task, intr, cfg.seed)
+    loc = classify(localizer.localize(frame, k=2), task.target, cfg.rules())
+    return {str(task.id): {"heading": goal_heading(cfg.seed, task.id), "pose": loc.pose,
+                           "status": loc.status, "confidence": _num(loc.confidence),
+                           "error_m": _num(loc.error_m),
+                           "ms": float(localizer.last_timing.get("total", 0.0))}}
+
+
+#: A pool worker's localiser, level and intrinsics, kept between chunks (one entry: the latest).
+_WORKER_STATE: dict = {}
+
+
+def localize_goals(spec) -> dict:
+    """Pool worker: the goal records of a chunk ``(level path, level name, map path, bank path,
+    config, tasks)``, with the localiser built once per process from the cached map and bank."""
+    import numpy as np
+
+    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+    from navbench.config import config_hash
+    from navbench.levelio import load_level
+    from navbench.localize import Bank, Localizer
+    from navbench.worldmodel.base import load_world_model
+
+    level_path, level_name, map_path, bank_path, cfg, chunk = spec
+    key = (str(level_path), str(map_path), str(bank_path), config_hash(cfg))
+    if key not in _WORKER_STATE:
+        _WORKER_STATE.clear()
+        intr = camera_by_name(cfg.camera)
+        with np.load(bank_path) as z:
+            bank = Bank(z["points"], z["pano"])
+        localizer = Localizer(load_world_model(map_path), intr, CAMERA_HEIGHT, cfg.localizer_config(), bank)
+        _WORKER_STATE[key] = (localizer, load_level(level_path, name=level_name or None), intr)
+    localizer, level, intr = _WORKER_STATE[key]
+    out = {}
+    for t in chunk:
+        out.update(_localize_goal(localizer, level, intr, cfg, t))
+    return out
 
 
 def _num(x: float) -> float | None:
