@@ -139,7 +139,10 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
     from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
 
     progress = progress or SilentProgress()
-    ctx.workers = int(profile.workers) if executor == "local" else 1  # stages that split items (image goals)
+    if executor == "local":  # stages that split items over local processes (image goals); 0: every CPU
+        from navbench.pipeline.executor import default_workers
+
+        ctx.workers = int(profile.workers) or default_workers()
     if ctx.db is not None:
         from navbench.pipeline.db.resume import resume_chain
 

@@ -81,7 +81,6 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
 
     def compute(d: Path) -> None:
         from navbench.geometry import CAMERA_HEIGHT, camera_by_name
-        from navbench.nav.imagegoal import classify, goal_heading, render_goal
         from navbench.pipeline.stages.localize import load_localizer
         from navbench.plan.tasks import load_tasks
 
