@@ -28,9 +28,10 @@ KEY = ["level", "task_id", "seed", "noise", "estimator"]
 
 
 def runs_frame(con, runs: list[int], estimator: str | None = None, preset: str | None = None) -> pd.DataFrame:
-    q = ("SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success, end_reason, "
-         "steps, path_length, optimal_length, final_dist_m, final_geo_m FROM episodes "
-         f"WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
+    extra = (", end_reason, steps, path_length, optimal_length, final_dist_m, final_geo_m"  # a preset's inputs
+             if preset is not None else "")
+    q = (f"SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success{extra} "
+         f"FROM episodes WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
     df = pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last")
     if preset is not None:
         from navbench.nav.presets import preset_terms

@@ -103,13 +103,16 @@ def test_score_and_export_say_which_runs_latest_took(db, tmp_path):
     assert proc.returncode == 2 and err.startswith("error:") and "comma-separated" in err and len(err.splitlines()) == 1
 
 
-def test_db_runs_lists_the_runs_each_resumed(db):
+def test_db_runs_lists_the_runs_each_resumed(db, monkeypatch):
+    from navbench.cli import _common
     from navbench.cli.main import app
+
+    monkeypatch.setattr(_common.console, "_width", 250)  # every column whole, whatever the terminal
 
     a = _run(db, "interrupted", [0])
     b = _run(db, "interrupted", [1])
     c = _run(db, "done", [2])
-    res = CliRunner().invoke(app, ["db", "runs", "--db", db.url], env={"COLUMNS": "250"})
+    res = CliRunner().invoke(app, ["db", "runs", "--db", db.url])
     assert res.exit_code == 0, res.output
     rows = {ln.split("│")[1].strip(): ln for ln in res.stdout.splitlines() if ln.startswith("│")}
     assert "resumes" in res.stdout
