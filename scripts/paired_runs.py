@@ -45,6 +45,15 @@ def runs_frame(con, runs: list[int], estimator: str | None = None, preset: str |
     return df.set_index(KEY)
 
 
+def stratified_ci(d: pd.Series, rng) -> tuple[float, float]:
+    """95 % percentile interval of the mean of ``d`` (indexed by level among others): 4000
+    resamples, each drawing every level's pairs with replacement and keeping their count."""
+    groups = [g.to_numpy() for _, g in d.groupby(level="level")]
+    boots = [np.mean(np.concatenate([rng.choice(g, len(g)) for g in groups])) for _ in range(4000)]
+    lo, hi = np.percentile(boots, [2.5, 97.5])
+    return float(lo), float(hi)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--a", required=True, help="run ids, comma-separated")
@@ -72,16 +81,12 @@ def main() -> None:
     rng = np.random.default_rng(0)
     for (est, noise), s in j.groupby(level=["estimator", "noise"], sort=True):
         d = s.spl_term_b - s.spl_term_a
-        groups = [g.to_numpy() for _, g in d.groupby(level="level")]
-        boots = [np.mean(np.concatenate([rng.choice(g, len(g)) for g in groups])) for _ in range(4000)]
-        lo, hi = np.percentile(boots, [2.5, 97.5])
+        lo, hi = stratified_ci(d, rng)
         line = (f"{est:9s} {noise:5s} pairs {len(d):4d}  SPL A {s.spl_term_a.mean():.3f} B {s.spl_term_b.mean():.3f} "
                 f"B-A {d.mean():+.3f} [{lo:+.3f}, {hi:+.3f}]  success A {s.success_a.mean():.3f} B {s.success_b.mean():.3f}")
         if args.preset is not None:
             ds = s.success_b.astype(float) - s.success_a.astype(float)
-            sg = [g.to_numpy() for _, g in ds.groupby(level="level")]
-            sb = [np.mean(np.concatenate([rng.choice(g, len(g)) for g in sg])) for _ in range(4000)]
-            slo, shi = np.percentile(sb, [2.5, 97.5])
+            slo, shi = stratified_ci(ds, rng)
             line += (f" B-A {ds.mean():+.3f} [{slo:+.3f}, {shi:+.3f}]; only A {(ds < 0).sum()}, only B {(ds > 0).sum()}"
                      f"  ({args.preset})")
         print(line)

@@ -49,19 +49,19 @@ def report(
     dest = check_report_dir(out, "--out", protected)
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
+        from navbench.cli._common import err_console
         from navbench.pipeline.db.resume import describe_selection, resolve_run_ids
 
-        chain = describe_selection(resolve_run_ids(rdb, run), run)
+        ids = resolve_run_ids(rdb, run)  # once: 'latest' reads every episode's run id
+        chain = describe_selection(ids, run)
         if chain:
-            from navbench.cli._common import err_console
-
             err_console.print(escape(chain), markup=True)
+        selection = run if ids is None else ",".join(map(str, ids))
         if preset is None:  # score's default: nrns for unknown-house episodes alone, else paper
-            from navbench.cli._common import err_console
             from navbench.pipeline.score import select_episodes
             from navbench.pipeline.score_presets import default_preset
 
-            preset, mixed = default_preset(select_episodes(rdb, run=run))
+            preset, mixed = default_preset(select_episodes(rdb, run=selection))
             if mixed:
                 err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
         with writing(dest, "--out", "the report"):
@@ -71,7 +71,7 @@ def report(
             with writing(dest, "--out", "the report"):  # a write that still fails: one line
                 build_report(rdb, build, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
-                             run=run, preset=preset)
+                             run=selection, preset=preset)
             publish(build, dest, protected, option="--out")
         finally:
             shutil.rmtree(build, ignore_errors=True)

@@ -70,11 +70,13 @@ def score(
     if preset is not None:
         get_preset(preset, "--preset")  # before opening the database
     with ResultsDB(db, create=False) as rdb:
-        frame = select_episodes(rdb, run=run, level=parse_list(level) or None)
-        chain = describe_selection(resolve_run_ids(rdb, run), run)
+        ids = resolve_run_ids(rdb, run)  # once: 'latest' reads every episode's run id
+        chain = describe_selection(ids, run)
+        selection = run if ids is None else ",".join(map(str, ids))
+        frame = select_episodes(rdb, run=selection, level=parse_list(level) or None)
         preset, mixed = (preset, None) if preset is not None else default_preset(frame)
-        table, paired = score_tables(rdb, run=run, level=parse_list(level) or None, n_boot=boot, seed=seed,
-                                     preset=preset)
+        table, paired = score_tables(rdb, run=selection, level=parse_list(level) or None, n_boot=boot,
+                                     seed=seed, preset=preset)
     if chain:
         err_console.print(escape(chain), markup=True)
     if mixed:

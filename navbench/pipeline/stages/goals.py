@@ -81,12 +81,10 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
 
     def compute(d: Path) -> None:
         from navbench.geometry import CAMERA_HEIGHT, camera_by_name
-        from navbench.pipeline.stages.localize import load_localizer
+        from navbench.pipeline.stages.localize import load_localizer, localize_bank_stage
         from navbench.plan.tasks import load_tasks
 
         intr = camera_by_name(cfg.camera)
-        localizer, bank = load_localizer(ctx, _MapHandle(vmap), intr, CAMERA_HEIGHT, cfg.localizer_config(),
-                                         level=level)
         task_list = load_tasks(tasks.path)
         update = ctx.progress(f"image goals {level.name}", len(task_list))
         out = {}
@@ -94,6 +92,8 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
         if workers > 1:  # the same goals: each task's localisation depends on nothing else
             from navbench.pipeline.executor import LocalExecutor
 
+            # the bank is cached here; each worker builds its own localiser from it
+            bank = localize_bank_stage(ctx, _MapHandle(vmap), CAMERA_HEIGHT, cfg.localizer_config(), level)
             size = max(1, min(8, len(task_list) // (4 * workers)))
             specs = [(level.path, level.name, vmap.path, bank.path, cfg, task_list[i:i + size])
                      for i in range(0, len(task_list), size)]
@@ -102,6 +102,8 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
                     out.update(part)
                     update(len(out))
         else:
+            localizer, _ = load_localizer(ctx, _MapHandle(vmap), intr, CAMERA_HEIGHT, cfg.localizer_config(),
+                                          level=level)
             lv = load_level_ref(level)
             for i, t in enumerate(task_list):
                 out.update(_localize_goal(localizer, lv, intr, cfg, t))
@@ -135,12 +137,10 @@ _WORKER_STATE: dict = {}
 def localize_goals(spec) -> dict:
     """Pool worker: the goal records of a chunk ``(level path, level name, map path, bank path,
     config, tasks)``, with the localiser built once per process from the cached map and bank."""
-    import numpy as np
-
-    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
     from navbench.config import config_hash
+    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
     from navbench.levelio import load_level
-    from navbench.localize import Bank, Localizer
+    from navbench.pipeline.stages.localize import localizer_from_bank
     from navbench.worldmodel.base import load_world_model
 
     level_path, level_name, map_path, bank_path, cfg, chunk = spec
@@ -148,9 +148,8 @@ def localize_goals(spec) -> dict:
     if key not in _WORKER_STATE:
         _WORKER_STATE.clear()
         intr = camera_by_name(cfg.camera)
-        with np.load(bank_path) as z:
-            bank = Bank(z["points"], z["pano"])
-        localizer = Localizer(load_world_model(map_path), intr, CAMERA_HEIGHT, cfg.localizer_config(), bank)
+        localizer = localizer_from_bank(bank_path, load_world_model(map_path), intr, CAMERA_HEIGHT,
+                                        cfg.localizer_config())
         _WORKER_STATE[key] = (localizer, load_level(level_path, name=level_name or None), intr)
     localizer, level, intr = _WORKER_STATE[key]
     out = {}

@@ -87,13 +87,20 @@ def load_localizer(ctx: StageContext, vmap, intrinsics, camera_height: float, cf
                    level: Ref | None = None):
     """``(Localizer, bank Ref)`` for ``vmap`` (of ``level``) through the cached bank (built if
     missing): what a stage that localises calls."""
+    ref = localize_bank_stage(ctx, vmap, camera_height, cfg, level)
+    return localizer_from_bank(ref.path, vmap.load() if model is None else model, intrinsics,
+                               camera_height, cfg), ref
+
+
+def localizer_from_bank(bank_path, model, intrinsics, camera_height: float, cfg):
+    """The :class:`~navbench.localize.Localizer` of ``model`` with the cached bank at
+    ``bank_path`` (a ``localize-bank`` artifact): what :func:`load_localizer` returns, for a
+    process that has the artifact's path but no stage context (a pool worker)."""
     from navbench.localize import Bank, Localizer
 
-    ref = localize_bank_stage(ctx, vmap, camera_height, cfg, level)
-    with np.load(ref.path) as z:
+    with np.load(bank_path) as z:
         bank = Bank(z["points"], z["pano"])
-    model = vmap.load() if model is None else model
-    return Localizer(model, intrinsics, camera_height, cfg, bank), ref
+    return Localizer(model, intrinsics, camera_height, cfg, bank)
 
 
 @dataclass(frozen=True)
