@@ -44,3 +44,13 @@ def test_profile_file_with_online_map_and_its_default_estimators(project):
 def test_misspelt_online_map(project):
     res = nb("run-navigation", "tiny", "--profile", "tiny.toml", "--map", "onlin", "--goal", "image")
     assert_clean_error(res, "--map", "'onlin'", "online")
+
+
+def test_ablation_without_online_map_is_the_only_output(project):
+    """The error line is all there is: the progress display starts with its first bar, so an
+    error raised after the pipeline's display was entered leaves no blank line on stdout."""
+    before = tree_snapshot(project)
+    res = nb("run-navigation", "tiny", "--profile", "tiny.toml", "--online-ablation", "no-goal", "--map", "fit")
+    assert_clean_error(res, "--online-ablation no-goal", "--map fit")
+    assert res.out == ""
+    _no_episode_ran(project, before)

@@ -41,14 +41,24 @@ class PipelineUI:
             TextColumn("ETA"), TimeRemainingColumn(compact=True),
             console=self.console, transient=False, disable=quiet,
         )
+        self._entered = self._shown = False
 
     def __enter__(self) -> "PipelineUI":
-        self.progress.start()
+        self._entered = True
         return self
 
     def __exit__(self, *exc) -> bool:
-        self.progress.stop()
+        if self._shown:
+            self.progress.stop()
+        self._entered = self._shown = False
         return False
+
+    def _show(self) -> None:
+        """Start the display with the first bar, not on entry: a display stopped without ever
+        showing a bar still writes a blank line (rich), e.g. before a command's error line."""
+        if self._entered and not self._shown:
+            self.progress.start()
+            self._shown = True
 
     def log(self, msg: str) -> None:
         if self.quiet:
@@ -60,6 +70,7 @@ class PipelineUI:
 
     def bar(self, description: str, total: int | None, unit: str = "it"):
         """A new bar; returns ``update(done, total=None, loss=None)``."""
+        self._show()
         tid = self.progress.add_task(description, total=total, extra="", unit=unit, t0=time.perf_counter())
 
         def update(done: int, total_: int | None = None, loss: float | None = None) -> None:
@@ -74,6 +85,7 @@ class PipelineUI:
 
     def counter(self, description: str, total: int, unit: str = "ep"):
         """A bar driven by increments: returns ``(advance(n), set_total(total))``."""
+        self._show()
         tid = self.progress.add_task(description, total=total, extra="", unit=unit, t0=time.perf_counter())
 
         def advance(n: int) -> None:
