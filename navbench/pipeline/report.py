@@ -245,16 +245,23 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
         page.table(spl_matrix(t, "all"), "spl_table" + (f"_{i + 1}" if i else ""),
                    f"SPL pooled over all levels, [95% BCa bootstrap interval stratified by level]{under}; "
                    f"scoring preset '{preset}'", index=True)
-    paper = pd.DataFrame(
-        [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
-        index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
-    page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
-    point = table[table["goal"] == "point"] if "goal" in table.columns and (table["goal"] == "point").any() \
-        else table  # Fig. 5a is the point-goal figure (issue 15: image goals in the goals section)
-    for conds in found:
+    # Fig. 5a and its values are the paper's point-goal figure (issue 15: image goals are scored
+    # in the goals section): an image-goal-only report sets nothing beside them
+    has_point = "goal" not in table.columns or bool((table["goal"] == "point").any())
+    drawn = found if has_point else []
+    if has_point:
+        paper = pd.DataFrame(
+            [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
+            index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
+        page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
+    else:
+        page.note("No point-goal episodes: the paper's Fig. 5a values and figure are left out; the "
+                  "image-goal scores by difficulty are under 'Goals and difficulty'.")
+    point = table[table["goal"] == "point"] if "goal" in table.columns and has_point else table
+    for conds in drawn:
         t = point if conds is None else point[point["conditions"] == conds]
         under = "" if conds is None else f"; conditions: {conds}"
-        page.figure(lambda fig, t=t, c=conds: _spl_panel(fig, t, c if len(found) > 1 else None),
+        page.figure(lambda fig, t=t, c=conds: _spl_panel(fig, t, c if len(drawn) > 1 else None),
                     "SPL per noise level and estimator, pooled over levels; error bars: 95% bootstrap "
                     f"interval; black ticks: the paper's values{under}", (8, 4.2))
     page.h2("Scores per level", "scores")

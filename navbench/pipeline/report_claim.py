@@ -159,10 +159,16 @@ def section_failures(page: Any, episodes: "pandas.DataFrame") -> None:
     if episodes is None or episodes.empty:
         page.note("No navigation episodes stored yet.")
         return
-    page.p("End reasons: reached (the agent believes it has arrived; success is judged on the "
-           "true position, within 2 L of the target), stuck (a collision: movement is prohibited "
-           "from then on), step-limit (500 steps), no-plan (A* found no path on the map). "
-           "collided counts the episodes that hit a wall or furniture.")
+    from navbench.nav.presets import PRESETS
+
+    preset = episodes.attrs.get("preset", "paper")
+    rule = PRESETS[preset].description if preset in PRESETS else "the paper's rule"
+    page.p("End reasons: reached (the agent believes it has arrived, or stopped by its own decision "
+           f"in an unknown house; success is judged on the true position, under the scoring preset "
+           f"'{preset}': {rule}), stuck (a collision: movement is prohibited from then on), "
+           "step-limit (500 steps), no-plan (A* found no path on the map), explored (unknown house: "
+           "everything reachable seen and the goal never matched). collided counts the episodes "
+           "that hit a wall or furniture.")
     found = conditions_in(episodes)
     under = f"; conditions: {found[0]}" if len(found) == 1 else ""
     page.table(end_reason_counts(episodes), "end_reasons",

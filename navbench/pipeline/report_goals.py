@@ -19,19 +19,68 @@ def _online_goals(page: Any, rows) -> None:
     """``--map online`` (no prior map): per level and conditions, the last goal match of each
     episode (matched / weak / ambiguous / none), the episodes the agent stopped and the median
     distance of the last matched goal to the true one."""
-    from navbench.pipeline.score import short_conditions
-
-    rows = rows.assign(match=rows["goal_status"].astype(str).str.removeprefix(ONLINE_PREFIX),
-                       conditions=[short_conditions(c) for c in rows.get("conditions", ["unrecorded"] * len(rows))])
-    keys = ["level", "conditions"]
+    shared, settings = split_conditions(rows.get("conditions", ["unrecorded"] * len(rows)))
+    rows = rows.assign(match=rows["goal_status"].astype(str).str.removeprefix(ONLINE_PREFIX), setting=settings)
+    keys = ["level", "setting"]
     counts = (rows.groupby([*keys, "match"]).size().unstack(fill_value=0)
               .reindex(columns=["matched", "weak", "ambiguous", "none"], fill_value=0))
     counts["stopped"] = rows.assign(s=rows["end_reason"].eq("reached")).groupby(keys)["s"].sum()
     counts["median error (m)"] = rows.groupby(keys)["goal_err_m"].median()
-    page.table(counts, "goal_online", "Image goals in an unknown house (--map online; conditions name "
+    page.table(counts, "goal_online", "Image goals in an unknown house (--map online; the conditions name "
                "the sensing model): the agent's last goal match per episode, the episodes it stopped "
-               "by its own decision and the median distance of its last matched goal to the true one",
+               f"by its own decision and the median distance of its last matched goal to the true one{_under(shared)}",
                index=True, digits=3)
+
+
+def difficulty_pivot(table) -> tuple["pandas.DataFrame", str]:
+    """:func:`~navbench.pipeline.score.difficulty_table` as one row per (level, estimator, noise,
+    goal, setting) and one column per difficulty, each cell ``"SR [lo, hi] / SPL"``; ``setting``
+    holds the conditions in which the rows differ (a map mode, an ablation), and the returned
+    string the conditions they share (left out of every row; ``""`` when none is recorded).
+    A single setting drops the column; ``level = "all"`` holds the pooled rows."""
+    import pandas as pd
+
+    labels = list(table["conditions"]) if "conditions" in table.columns else ["unrecorded"] * len(table)
+    shared, settings = split_conditions(labels)
+    t = table.assign(setting=settings)
+    present = set(t["difficulty"])
+    order = [d for d in ("easy", "medium", "hard", "other", "all") if d in present]
+    keys = ["level", "estimator", "noise", "goal", "setting"]
+    rows = []
+    for key, g in t.groupby(keys, sort=False):
+        rec = dict(zip(keys, key))
+        by = {r.difficulty: r for r in g.itertuples()}
+        for d in order:
+            r = by.get(d)
+            rec[d] = "–" if r is None else (f"{r.success_rate:.2f} [{r.success_rate_ci_low:.2f}, "
+                                            f"{r.success_rate_ci_high:.2f}] / {r.spl:.2f}")
+        rec["episodes"] = int(by["all"].episodes) if "all" in by else int(g["episodes"].sum())
+        rows.append(rec)
+    out = pd.DataFrame(rows, columns=[*keys, *order, "episodes"])
+    if out["setting"].nunique() <= 1:
+        out = out.drop(columns="setting")
+    return out, shared
+
+
+def _under(shared: str) -> str:
+    """A caption's clause naming the conditions every row shares (:func:`split_conditions`)."""
+    if not shared:
+        return ""
+    return "; every row under " + ("the default simulator conditions" if shared == "defaults" else shared)
+
+
+def split_conditions(labels) -> tuple[str, list[str]]:
+    """Conditions labels (``score.conditions_label``) as the part every label shares (the
+    conditions at their defaults left out, as :func:`~navbench.pipeline.score.short_conditions`:
+    ``"defaults"`` when all are; ``""`` when nothing is shared or recorded) and each label's own
+    rest (``"–"`` when none): a narrow ``setting`` column, the shared part said once."""
+    from navbench.pipeline.score import short_conditions
+
+    split = [short_conditions(c).split(", ") for c in labels]
+    common = [p for p in split[0] if all(p in q for q in split)] if split else []
+    shared = ", ".join(common)
+    return ("" if shared == "unrecorded" else shared,
+            [", ".join(p for p in q if p not in common) or "–" for q in split])
 
 
 def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=None,
@@ -56,14 +105,18 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
            "distance: the preset's d_T (mean, m). Difficulty: NRNS bands of the exact geodesic "
            "start-goal distance (easy 1.5-3 m, medium 3-5 m, hard 5-10 m; 'other' outside them).")
     table = difficulty_table(episodes)
-    caption = (f"Success rate [95% exact interval], SPL, SoftSPL and final distance by goal and "
-               f"difficulty, scored under the '{name}' preset")
-    shown = None
-    if "conditions" in table.columns and table["conditions"].nunique() == 1:
-        # one set of conditions: named once in the caption, not in a column as wide as the page
-        caption += f"; conditions: {table['conditions'].iloc[0]}"
-        shown = table.drop(columns=["conditions"])
-    page.table(table, "by_difficulty", caption, digits=3, display=shown)
+    pivot, common = difficulty_pivot(table)
+    where = _under(common)
+    several = pivot.loc[pivot["level"] != "all", "level"].nunique() > 1
+    page.table(table, "by_difficulty",
+               f"Success rate [95% exact interval] / SPL by difficulty, scored under the '{name}' "
+               f"preset, {'pooled over levels' if several else 'one level'}{where}; the CSV adds "
+               "SoftSPL, the final distance and the level rows",
+               display=pivot[pivot["level"] == "all"].drop(columns="level") if several
+               else pivot[pivot["level"] != "all"])
+    if several:
+        page.table(table[table["level"] != "all"], "by_difficulty_levels",
+                   "The same per level", display=pivot[pivot["level"] != "all"])
     if "goal_status" not in episodes.columns or episodes["goal"].eq("image").sum() == 0:
         return
     img = episodes[episodes["goal"] == "image"]

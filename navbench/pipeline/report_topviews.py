@@ -107,7 +107,8 @@ def section_online_topviews(page: Any, rows, levels_dir: Path | None, load_traje
             except (NavbenchError, OSError, KeyError, ValueError):
                 failed += 1
         if failed:
-            page.note(f"{name}: {failed} online trajectory artifact(s) unavailable")
+            page.note(f"{name} ({conds}): {failed} of its {len(first)} online trajectory artifact(s) "
+                      "unavailable (not in this cache: run elsewhere, or removed)")
         if not episodes:
             continue
         grid, grid_note = None, ""

@@ -4,6 +4,7 @@ scoring of stored rows, and the keys of point goals and of today's task sets unc
 from __future__ import annotations
 
 import json
+import re
 import sqlite3
 
 import numpy as np
@@ -82,8 +83,12 @@ def test_image_goal_episodes_end_to_end(image_run):
     assert "goal_localization.csv" in html and "tiny: goal images" in html and "unavailable" not in html
     # one set of conditions: named in the caption, and the CSV keeps the column
     goals_html = html.split('id="goals"')[1].split("<h2")[0]
-    assert "preset; conditions: " in goals_html and "<th>conditions</th>" not in goals_html
+    assert "one level; every row under the default simulator conditions" in goals_html and "<th>conditions</th>" not in goals_html
     assert "conditions" in by_diff.columns
+    # one cell per difficulty, "SR [95 %] / SPL"; image goals only: no point-goal Fig. 5a beside them
+    sr, spl = score[score["level"] == "tiny"].iloc[0][["success_rate", "spl"]]
+    assert re.search(rf"<td>{sr:.2f} \[\d\.\d\d, \d\.\d\d\] / {spl:.2f}</td>", goals_html)
+    assert "spl_paper.csv" not in html and "No point-goal episodes" in html
 
 
 def test_image_and_point_goal_cells_have_different_keys_and_point_keys_are_todays():

@@ -97,6 +97,30 @@ def test_report_without_online_rows_is_unchanged(online_run, tmp_path):  # noqa:
     assert sum(s.count("<img ") for s in pages[0]) == 1  # the goal images strip only
 
 
+def test_missing_trajectories_are_a_note_naming_level_and_conditions(online_run, tmp_path):  # noqa: F811
+    """Rows whose trajectory artifacts are not in this cache (run on another machine): one note
+    naming the level, its conditions and how many of the drawn episodes are missing; no figure."""
+    from navbench.pipeline.db import ResultsDB
+    from navbench.pipeline.report import _Page
+    from navbench.pipeline.report_topviews import section_online_topviews
+    from navbench.pipeline.score import select_episodes
+    from navbench.pipeline.score_presets import apply_preset
+
+    root, _ = online_run
+    db = ResultsDB(f"sqlite:///{root / 'onl.db'}")
+    eps = apply_preset(select_episodes(db), "nrns")  # as build_report selects them: with conditions
+
+    def gone(key):
+        raise KeyError(key)
+
+    page = _Page(tmp_path)
+    section_online_topviews(page, eps, root / "levels", gone, None)
+    notes = [s for s in page.sections if "unavailable" in s]
+    assert notes == ['<p class="note">tiny (map=online, mapping=perfect, pose=true): 2 of its 2 online '
+                     'trajectory artifact(s) unavailable (not in this cache: run elsewhere, or removed)</p>']
+    assert page.figures == 0
+
+
 @pytest.mark.parametrize("success,reason,expected", [
     (True, "reached", "success"), (False, "reached", "failed: stopped too far"),
     (False, "step-limit", "failed: step-limit"), (False, "explored", "failed: explored")])
