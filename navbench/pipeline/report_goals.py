@@ -54,7 +54,7 @@ def difficulty_pivot(table) -> tuple["pandas.DataFrame", str]:
             r = by.get(d)
             rec[d] = "–" if r is None else (f"{r.success_rate:.2f} [{r.success_rate_ci_low:.2f}, "
                                             f"{r.success_rate_ci_high:.2f}] / {r.spl:.2f}")
-        rec["episodes"] = int(by["all"].episodes) if "all" in by else int(g["episodes"].sum())
+        rec["episodes"] = int(by["all"].episodes)  # difficulty_table pools every group as "all"
         rows.append(rec)
     out = pd.DataFrame(rows, columns=[*keys, *order, "episodes"])
     if out["setting"].nunique() <= 1:

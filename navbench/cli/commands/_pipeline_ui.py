@@ -41,22 +41,21 @@ class PipelineUI:
             TextColumn("ETA"), TimeRemainingColumn(compact=True),
             console=self.console, transient=False, disable=quiet,
         )
-        self._entered = self._shown = False
+        self._shown = False  # the display starts with the first bar (_show)
 
     def __enter__(self) -> "PipelineUI":
-        self._entered = True
         return self
 
     def __exit__(self, *exc) -> bool:
         if self._shown:
             self.progress.stop()
-        self._entered = self._shown = False
+            self._shown = False
         return False
 
     def _show(self) -> None:
         """Start the display with the first bar, not on entry: a display stopped without ever
         showing a bar still writes a blank line (rich), e.g. before a command's error line."""
-        if self._entered and not self._shown:
+        if not self._shown:
             self.progress.start()
             self._shown = True
 

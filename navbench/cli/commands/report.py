@@ -50,13 +50,11 @@ def report(
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
         from navbench.cli._common import err_console
-        from navbench.pipeline.db.resume import describe_selection, resolve_run_ids
+        from navbench.pipeline.db.resume import resolve_selection
 
-        ids = resolve_run_ids(rdb, run)  # once: 'latest' reads every episode's run id
-        chain = describe_selection(ids, run)
+        selection, chain = resolve_selection(rdb, run)
         if chain:
             err_console.print(escape(chain), markup=True)
-        selection = run if ids is None else ",".join(map(str, ids))
         if preset is None:  # score's default: nrns for unknown-house episodes alone, else paper
             from navbench.pipeline.score import select_episodes
             from navbench.pipeline.score_presets import default_preset

@@ -60,7 +60,7 @@ def score(
     from rich.markup import escape
 
     from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.db.resume import describe_selection, resolve_run_ids
+    from navbench.pipeline.db.resume import resolve_selection
     from navbench.cli._common import err_console
     from navbench.nav.presets import get_preset
     from navbench.pipeline.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
@@ -70,9 +70,7 @@ def score(
     if preset is not None:
         get_preset(preset, "--preset")  # before opening the database
     with ResultsDB(db, create=False) as rdb:
-        ids = resolve_run_ids(rdb, run)  # once: 'latest' reads every episode's run id
-        chain = describe_selection(ids, run)
-        selection = run if ids is None else ",".join(map(str, ids))
+        selection, chain = resolve_selection(rdb, run)
         frame = select_episodes(rdb, run=selection, level=parse_list(level) or None)
         preset, mixed = (preset, None) if preset is not None else default_preset(frame)
         table, paired = score_tables(rdb, run=selection, level=parse_list(level) or None, n_boot=boot,

@@ -100,3 +100,11 @@ def describe_selection(ids: list[int] | None, run) -> str | None:
         return None
     return (f"--run latest: runs {', '.join(map(str, ids))} (run {ids[-1]} resumed "
             f"{', '.join(map(str, ids[:-1]))}, which did not finish: one measurement)")
+
+
+def resolve_selection(db: "ResultsDB", run) -> tuple[str | int | None, str | None]:
+    """``run`` resolved once (``latest`` reads every episode's run id) as the literal selection
+    the readers take (``"4,5,6"``; ``run`` itself for ``all`` or none) and
+    :func:`describe_selection`'s line: what ``score`` and ``report`` print and pass on."""
+    ids = resolve_run_ids(db, run)
+    return (run if ids is None else ",".join(map(str, ids))), describe_selection(ids, run)
