@@ -87,7 +87,7 @@ def run_setting(prof, conditions: dict, db, args):
     """Run (or resume) the grid of ``prof`` under ``conditions``; its episodes frame."""
     from navbench.pipeline.profiles import override
     from navbench.pipeline.run import run_profile
-    from navbench.pipeline.score import select_episodes
+    from navbench.results.score import select_episodes
     from navbench.sim.conditions import conditions_to_episode
 
     p = override(prof, episode={**prof.episode, **conditions_to_episode(conditions)})

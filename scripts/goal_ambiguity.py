@@ -127,7 +127,7 @@ def _episodes(url: str):
     """The episodes of ``url`` (``score``'s selection) with ``goal`` filled (``point`` where
     the row says nothing); success and SPL as stored (the ``paper`` preset)."""
     from navbench.pipeline.run import open_db
-    from navbench.pipeline.score import select_episodes
+    from navbench.results.score import select_episodes
 
     with open_db(url) as db:
         f = select_episodes(db)

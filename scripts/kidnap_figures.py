@@ -94,7 +94,7 @@ def main() -> None:
         keep_col = ["--collisions", args.collisions]
     else:
         keep_col = []
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     db = ResultsDB(args.db)
     plain, kid = [], []

@@ -20,7 +20,7 @@ from navbench.bench import (
     timed_loop,
 )
 from navbench.cli.main import app
-from navbench.pipeline.db import ResultsDB
+from navbench.results.db import ResultsDB
 
 
 # ------------------------------------------------------------------------------ statistics

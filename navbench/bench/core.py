@@ -12,18 +12,9 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from navbench.errors import ConfigError
+# the paper's speed figures live with its other figures (the report reads them too)
+from navbench.paper import PAPER_FIGURES, PAPER_HARDWARE  # noqa: F401
 
-
-#: The paper's per-step figures (section 5, fig. 4c; Quadro RTX 8000 GPU), in our units.
-PAPER_FIGURES: dict[str, float] = {
-    "voxel_render_ms": 50.0,  # one image rendered from the voxel map
-    "nerf_render_ms": 2720.0,  # one image rendered from a NeRF map (not part of navbench)
-    "emission_track_ms": 250.0,  # one emission-based tracking step
-    "ours_track_ms": 60.0,  # one prediction-to-observation tracking step
-    "control_step_ms": 62.0,  # ours + control, one full time step
-    "control_step_hz": 16.1,
-}
-PAPER_HARDWARE = "NVIDIA Quadro RTX 8000 GPU + 8 Intel Xeon Gold 6252 cores (2.1 GHz)"
 
 #: The paper's Monte-Carlo batch of the map fit: 25 images x 200 pixels (appendix A).
 FIT_BATCH = (25, 200)

@@ -27,7 +27,7 @@ def host_info() -> dict[str, Any]:
     import torch
 
     from navbench import __version__
-    from navbench.pipeline.db import cpu_description
+    from navbench.results.db import cpu_description
 
     cuda = torch.cuda.is_available()
     load = os.getloadavg() if hasattr(os, "getloadavg") else (math.nan,) * 3
@@ -158,7 +158,7 @@ def assemble_result(metrics: dict[str, Metric], context: dict[str, Any]) -> dict
 
 
 def bench_rows(result: dict[str, Any]) -> list[dict]:
-    """Rows for :meth:`navbench.pipeline.db.ResultsDB.add_bench_rows`: one per measured key
+    """Rows for :meth:`navbench.results.db.ResultsDB.add_bench_rows`: one per measured key
     (the median, or the derived value), with its unit and device; n/a keys are left out."""
     rows = []
     for key in metric_keys():

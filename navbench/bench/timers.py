@@ -404,7 +404,7 @@ def time_navigation(level_file: Path, vmap, tasks: list, estimators: tuple[str, 
     import hashlib
 
     from navbench.pipeline.cache import ArtifactStore
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from navbench.pipeline.executor import make_executor
     from navbench.pipeline.stages import (
         LevelInputs,

@@ -77,7 +77,7 @@ def profile_help(what: str = "Profile", shows_default: bool = False) -> str:
 
 
 #: The results database when neither --db nor $NAVBENCH_DB is given: the value of
-#: navbench.pipeline.db.DEFAULT_DB_URL (a test checks), typed here because that module imports
+#: navbench.results.db.DEFAULT_DB_URL (a test checks), typed here because that module imports
 #: SQLAlchemy, which the CLI does not load just to print its help.
 DB_URL = "sqlite:///results/navbench.db"
 _DB_FILE = DB_URL.removeprefix("sqlite:///")

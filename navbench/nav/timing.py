@@ -2,7 +2,7 @@
 
 The episode loop (:mod:`navbench.nav.episode`) records one list of milliseconds per component;
 the results database stores each component's median as the column ``<name>_ms``
-(:class:`navbench.pipeline.db.EpisodeRow`); the report tabulates and plots them in this order.
+(:class:`navbench.results.db.EpisodeRow`); the report tabulates and plots them in this order.
 Every one of them reads the names from here, so adding or renaming a component is one edit
 (plus a database column). This module imports nothing: the database and the report use it
 without loading the planner (numba) that :mod:`navbench.nav.episode` needs.

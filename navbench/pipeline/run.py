@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol
 if TYPE_CHECKING:
     import pandas
 
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from navbench.pipeline.profiles import Profile
     from navbench.pipeline.stages import LevelInputs, NavigationSummary, Ref, StageContext
 
@@ -84,9 +84,9 @@ def stage_context(progress: Progress | None = None, db: "ResultsDB | None" = Non
 
 @contextmanager
 def open_db(db: "ResultsDB | str | None") -> Iterator["ResultsDB"]:
-    """``db`` itself when it is a :class:`~navbench.pipeline.db.ResultsDB` (left open), else the
+    """``db`` itself when it is a :class:`~navbench.results.db.ResultsDB` (left open), else the
     database at URL ``db`` (``None``: ``$NAVBENCH_DB`` or the default SQLite file), closed after."""
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     if isinstance(db, ResultsDB):
         yield db
@@ -144,7 +144,7 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
 
         ctx.workers = int(profile.workers) or default_workers()
     if ctx.db is not None:
-        from navbench.pipeline.db.resume import resume_chain
+        from navbench.results.db.resume import resume_chain
 
         earlier = resume_chain(ctx.db.runs_frame(), run_id)[:-1]
         if earlier:
@@ -199,7 +199,7 @@ class RunResult:
     ``score`` / ``report``: the score and report artifacts (``None`` when not run);
     ``report_path``: the published report's ``index.html`` (or the cached one when not
     published); ``refs``: every (stage, key) the run touched; ``breakdown``: where the time
-    went, per stage and per episode component (:mod:`navbench.pipeline.breakdown`; stored in
+    went, per stage and per episode component (:mod:`navbench.results.breakdown`; stored in
     the database's ``run_timings`` with the run).
     """
 
@@ -242,9 +242,9 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     recorded as interrupted and the ``KeyboardInterrupt`` propagates.
     """
     from navbench.errors import ConfigError
-    from navbench.pipeline.breakdown import breakdown_rows
+    from navbench.results.breakdown import breakdown_rows
     from navbench.pipeline.profiles import Profile, load_profile, override
-    from navbench.pipeline.publish import check_report_dir, protected_paths, publish
+    from navbench.report.publish import check_report_dir, protected_paths, publish
     from navbench.pipeline.stages import report_stage, score_stage
 
     if until not in UNTIL:

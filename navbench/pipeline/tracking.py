@@ -32,7 +32,7 @@ def track_sequence(directory, map: Any = None, config: TrackSequenceConfig | Non
     ``no-map`` / ``dynamics``); ``config`` or keyword ``overrides`` of
     :class:`TrackSequenceConfig` (``estimator="ours", odometry="gt+mid", seed=0, options=...``).
     Writes the estimate as a strict TUM file to ``out`` (``None``: no file; ``"default"``:
-    :func:`default_output`); with ``db`` (a :class:`~navbench.pipeline.db.ResultsDB`) records a
+    :func:`default_output`); with ``db`` (a :class:`~navbench.results.db.ResultsDB`) records a
     run and stores one ``sequence_tracking`` row. ``store``: the artifact store cache keys are
     looked up in (default ``results/cache``). ``reading``: an
     :class:`~navbench.pipeline.stages.imported.ImportOptions` when the directory's intrinsics,

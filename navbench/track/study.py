@@ -437,7 +437,7 @@ def _on_track(results: dict[str, Any], name: str) -> np.ndarray:
 
 def tracking_rows(results: dict[str, Any], study_key: str, map_key: str | None = None) -> list[dict]:
     """One row per (estimator, trajectory, seed) of :func:`run_tracking_study` results, in the
-    layout of :meth:`navbench.pipeline.db.ResultsDB.add_tracking_rows` (times are per-step
+    layout of :meth:`navbench.results.db.ResultsDB.add_tracking_rows` (times are per-step
     medians in ms; RMSE in m and deg; ``loc_rmse_m`` is the ATE, :mod:`navbench.track.kidnap`).
     Issue 14's columns where they apply: ``raw_odom_ate_m`` (the trajectory's raw odometry),
     ``kidnaps``, ``kidnaps_recovered`` (within 5 steps), ``kidnaps_detected``, ``alarms``,

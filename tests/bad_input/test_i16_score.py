@@ -12,7 +12,7 @@ from tests.pipeline.test_db import episode
 
 
 def _store(rows):
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     db = ResultsDB("sqlite:///results/navbench.db")
     run = db.start_run("probe", "navbench probe", {}, "k")

@@ -207,7 +207,7 @@ def test_bad_committed_task_file_is_an_error_before_any_episode(project, tmp_pat
     p = _committed_tasks(project, edit)
     res = nb("run-navigation", "--profile", "tinytrue.toml")
     assert_clean_error(res, f"tasks/{p.name}", field)
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     db = project / "results" / "navbench.db"
     if db.exists():  # no episode row, whatever the database's layout

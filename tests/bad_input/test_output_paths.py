@@ -287,7 +287,7 @@ def test_cache_root_that_does_not_exist_is_an_empty_cache(project):
 def test_db_folder_under_a_file_names_the_file(project, afile):
     """Creating a database (run-navigation, all, ...) under a file: the message names the file."""
     from navbench.errors import DatabaseError
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     with pytest.raises(DatabaseError, match="afile/x.db: afile is a file, not a folder$"):
         ResultsDB("sqlite:///afile/x.db", create=True)

@@ -94,7 +94,7 @@ def test_report_that_fails_while_writing_keeps_the_earlier_report(project, monke
     report stays whole and no half-built folder is left beside it."""
     import errno
 
-    import navbench.pipeline.report as report_mod
+    import navbench.report.build as report_mod
 
     assert nb("all", "--profile", "tiny.toml", "--report", "published").code == 0
     before = tree_snapshot(project)
@@ -113,7 +113,7 @@ def test_report_that_fails_while_writing_keeps_the_earlier_report(project, monke
 
 
 def test_publish_replaces_only_what_it_published(tmp_path):
-    from navbench.pipeline.publish import REPORT_MARKER, publish
+    from navbench.report.publish import REPORT_MARKER, publish
     from navbench.errors import ConfigError
 
     src = tmp_path / "artifact"
@@ -391,7 +391,7 @@ def test_grid_beyond_ten_million_episodes_is_refused_before_planning(project, tm
 
 def test_markup_in_a_stored_level_name_is_printed_literally(project, monkeypatch):
     from navbench.cli import _common
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from tests.pipeline.test_db import episode
 
     db = ResultsDB("sqlite:///results/navbench.db")

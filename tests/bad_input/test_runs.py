@@ -58,7 +58,7 @@ def descendants(pid: int) -> set[int]:
 
 
 def _open_db_at_once(barrier, url, errors) -> None:
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     barrier.wait(timeout=60)
     try:

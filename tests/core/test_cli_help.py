@@ -171,7 +171,7 @@ def test_profile_help_names_every_bundled_profile(path):
 
 def test_db_default_is_the_database_modules():
     from navbench.cli._help import DB_URL
-    from navbench.pipeline.db import DEFAULT_DB_URL
+    from navbench.results.db import DEFAULT_DB_URL
 
     assert DB_URL == DEFAULT_DB_URL
 

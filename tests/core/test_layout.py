@@ -105,3 +105,83 @@ def test_no_module_above_600_lines():
 def test_no_import_cycle():
     cycles = find_cycles(_graph())
     assert not cycles, f"import cycles: {cycles}"
+
+
+#: The floors, lowest first: a module may import its own floor and those below, never above.
+#: ``navbench.proc``, ``paper``, ``errors``, ``names``, ``config``, ``geometry`` and the level
+#: modules are the ground every floor stands on.
+FLOORS = [
+    ("math", ("navbench.sim", "navbench.worldmodel", "navbench.plan", "navbench.nav", "navbench.track",
+              "navbench.localize", "navbench.levelgen")),
+    ("results", ("navbench.results",)),
+    ("report", ("navbench.report",)),
+    ("pipeline", ("navbench.pipeline",)),
+    ("bench", ("navbench.bench",)),
+    ("cli", ("navbench.cli",)),
+]
+
+
+def _floor(module: str) -> int | None:
+    for i, (_, prefixes) in enumerate(FLOORS):
+        if any(module == p or module.startswith(p + ".") for p in prefixes):
+            return i
+    return None
+
+
+def test_imports_point_down():
+    """math -> results -> report -> pipeline -> bench -> CLI: no module imports a floor above its
+    own (deferred imports inside functions included)."""
+    up = []
+    for mod, targets in _graph().items():
+        f = _floor(mod)
+        for t in targets:
+            ft = _floor(t)
+            if f is not None and ft is not None and ft > f:
+                up.append(f"{mod} -> {t}")
+    assert not up, "imports pointing up a floor:\n" + "\n".join(sorted(up))
+
+
+def test_floor_checker_sees_an_upward_import():
+    assert _floor("navbench.results.score") < _floor("navbench.pipeline.cache")
+    assert _floor("navbench.nav.presets") < _floor("navbench.results.presets")
+
+
+def test_pipeline_neither_scores_reports_nor_plots():
+    """``navbench/pipeline/`` is orchestration: no module there imports matplotlib, and the only
+    modules named after scoring or the report are the two stages that call down into
+    :mod:`navbench.results` and :mod:`navbench.report`."""
+    stages_calling_down = {"navbench.pipeline.stages.score", "navbench.pipeline.stages.report"}
+    offenders = []
+    for p in (PKG / "pipeline").rglob("*.py"):
+        name = _module_name(p)
+        text = p.read_text()
+        if "matplotlib" in text:
+            offenders.append(f"{name} uses matplotlib")
+        stem = p.stem
+        if any(w in stem for w in ("score", "report", "plot", "breakdown", "preset", "table")) \
+                and name not in stages_calling_down:
+            offenders.append(f"{name} is named as results/report code")
+    assert not offenders, offenders
+    for name in stages_calling_down:
+        path = PKG / "pipeline" / "stages" / (name.rsplit(".", 1)[1] + ".py")
+        assert len(path.read_text().splitlines()) < 80, f"{name} should only call down"
+
+
+def test_moved_modules_still_import_with_a_warning():
+    """Every old path of a moved module answers with the module at its new path (the same object)
+    and a DeprecationWarning naming the new one."""
+    import importlib
+    import sys
+    import warnings
+
+    from navbench import _moved
+
+    for old, new in _moved.MOVED.items():
+        sys.modules.pop(old, None)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            mod = importlib.import_module(old)
+        assert mod is importlib.import_module(new), old
+        assert mod.__spec__.name == new, f"{new}'s spec was overwritten by the alias {old}"
+        assert any(issubclass(w.category, DeprecationWarning) and new in str(w.message) for w in caught), old
+        assert not (PKG / Path(*old.split(".")[1:])).with_suffix(".py").exists(), f"{old} exists again"

@@ -11,10 +11,12 @@ from pathlib import Path
 from navbench import geometry
 from navbench.bench import table as bench_table
 from navbench.nav import episode, timing
-from navbench.pipeline import plots, profiles, report
-from navbench.pipeline.db import EpisodeRow
-from navbench.pipeline.db import rows as db_rows
-from navbench.pipeline.db import schema as db_schema
+from navbench.pipeline import profiles
+from navbench.report import build as report
+from navbench.report import plots
+from navbench.results.db import EpisodeRow
+from navbench.results.db import rows as db_rows
+from navbench.results.db import schema as db_schema
 
 PKG = Path(__file__).resolve().parents[2] / "navbench"
 

@@ -81,7 +81,7 @@ def _claim_frame() -> pd.DataFrame:
 
 
 def test_paired_differences_on_a_constructed_table():
-    from navbench.pipeline.score import paired_differences, with_identities
+    from navbench.results.score import paired_differences, with_identities
 
     p = paired_differences(with_identities(_claim_frame()), n_boot=500, seed=1)
     assert list(p["comparison"].unique()) == ["ours - no-map", "ours - dynamics"]
@@ -105,7 +105,7 @@ def test_paired_differences_on_a_constructed_table():
 
 
 def test_summarise_uses_the_exact_and_stratified_intervals():
-    from navbench.pipeline.score import summarise, with_identities
+    from navbench.results.score import summarise, with_identities
 
     f = with_identities(_claim_frame()).assign(loc_rmse_m=0.1, rot_rmse_deg=1.0, step_ms=2.0)
     t = summarise(f, n_boot=300, seed=2)

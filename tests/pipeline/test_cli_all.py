@@ -70,7 +70,7 @@ def forbid(monkeypatch, *targets):
 
 HEAVY = ("navbench.worldmodel.views.collect_views", "navbench.worldmodel.fit.fit_map",
          "navbench.plan.tasks.sample_tasks", "navbench.pipeline.stages.navigation.run_episode_chunk",
-         "navbench.pipeline.report.build_report", "navbench.pipeline.score.summarise")
+         "navbench.report.build.build_report", "navbench.results.score.summarise")
 
 
 @pytest.mark.slow

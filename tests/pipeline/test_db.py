@@ -17,7 +17,7 @@ import pytest
 
 from navbench.errors import DatabaseError
 from navbench.nav.metrics import EpisodeScore
-from navbench.pipeline.db import ResultsDB, episode_row_from_score
+from navbench.results.db import ResultsDB, episode_row_from_score
 
 PG_URL = os.environ.get("NAVBENCH_TEST_PG_URL")
 
@@ -247,7 +247,7 @@ def test_bad_urls_are_one_line_database_errors(url):
 
 def test_generic_insert_fallback_ignores_duplicates(db):
     """The select-then-insert path used for dialects without ON CONFLICT."""
-    from navbench.pipeline.db import EpisodeRow
+    from navbench.results.db import EpisodeRow
 
     rid = db.start_run("quick", "run-navigation", {}, "x")
     db.add_episodes(rid, [episode(task_id=0)])
@@ -347,7 +347,7 @@ def test_runs_of_dead_processes_become_interrupted(tmp_path):
 
     from sqlalchemy import update
 
-    from navbench.pipeline.db import Run
+    from navbench.results.db import Run
 
     url = f"sqlite:///{tmp_path / 'r.db'}"
     d = ResultsDB(url)

@@ -78,7 +78,7 @@ def test_episodes_by_run_level_estimator_noise(project):  # noqa: F811
     from navbench.nav.metrics import score_episode
     from navbench.pipeline.artifacts import TRAJ_FILE, save_record
     from navbench.pipeline.cache import ArtifactStore
-    from navbench.pipeline.db import ResultsDB, episode_row_from_score
+    from navbench.results.db import ResultsDB, episode_row_from_score
     from navbench.worldmodel.tumtraj import read_planar_poses
 
     rng = np.random.default_rng(0)

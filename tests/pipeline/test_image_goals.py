@@ -151,9 +151,9 @@ def test_task_config_key_without_difficulty_is_todays():
 
 
 def test_paper_preset_keeps_stored_values_and_nrns_rescores(tmp_path):
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.score import score_tables, select_episodes
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.db import ResultsDB
+    from navbench.results.score import score_tables, select_episodes
+    from navbench.results.presets import apply_preset
 
     db = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
     run = db.start_run("p", "probe", {}, "k")

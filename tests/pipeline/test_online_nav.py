@@ -94,9 +94,9 @@ def test_rows_of_the_unknown_house_loop(online_run, monkeypatch):
 
 
 def test_presets_rescore_the_stored_rows(online_run, monkeypatch):
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.score import select_episodes
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.db import ResultsDB
+    from navbench.results.score import select_episodes
+    from navbench.results.presets import apply_preset
 
     root, result = online_run
     monkeypatch.chdir(root)
@@ -209,7 +209,7 @@ def test_online_profile_rules():
 def _known_and_online_db(path):
     """A results database (open) with two runs of the same level, estimator (gt), noise, goal
     (image) and 3 tasks: run 1 on a known map (stopped at the goal), run 2 online (3 m away)."""
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from tests.pipeline.test_db import episode
 
     db = ResultsDB(f"sqlite:///{path}")
@@ -225,8 +225,8 @@ def _known_and_online_db(path):
 def test_online_rows_never_pool_with_known_map_rows(tmp_path):
     """Same level, estimator, noise, goal and tasks, one run on a known map and one online: the
     score table and the difficulty table keep them apart by their conditions label."""
-    from navbench.pipeline.score import difficulty_table, select_episodes, summarise
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.score import difficulty_table, select_episodes, summarise
+    from navbench.results.presets import apply_preset
 
     db = _known_and_online_db(tmp_path / "r.db")
     try:
@@ -323,7 +323,7 @@ def test_report_defaults_to_nrns_for_unknown_house_rows_only(tmp_path):
     from typer.testing import CliRunner
 
     from navbench.cli.main import app
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from tests.pipeline.test_db import episode
 
     url = f"sqlite:///{tmp_path / 'r.db'}"

@@ -17,9 +17,9 @@ import pytest
 from typer.testing import CliRunner
 
 from navbench.errors import ArtifactError
-from navbench.pipeline.db import ResultsDB
-from navbench.pipeline.report import build_report
-from navbench.pipeline.score import score_table
+from navbench.results.db import ResultsDB
+from navbench.report.build import build_report
+from navbench.results.score import score_table
 
 from .test_db import FakeTask, episode
 
@@ -196,7 +196,7 @@ def test_a_running_run_is_explained(synthetic):
 
 
 def test_a_long_run_history_shows_the_newest_runs_and_keeps_all_in_the_csv(tmp_path):
-    from navbench.pipeline.report import RUNS_SHOWN
+    from navbench.report.build import RUNS_SHOWN
 
     with ResultsDB(f"sqlite:///{tmp_path / 'h.db'}") as db:
         ids = [db.start_run(f"p{k}", f"navbench all --profile p{k}", {}, "e" * 64)
@@ -214,7 +214,7 @@ def test_a_long_run_history_shows_the_newest_runs_and_keeps_all_in_the_csv(tmp_p
 def test_bench_history_puts_runs_side_by_side(tmp_path):
     """Three bench runs, two devices, a metric missing from one run: one column per run, oldest
     first, the last BENCH_HISTORY_RUNS only."""
-    from navbench.pipeline import report as rep
+    from navbench.report import build as rep
 
     with ResultsDB(f"sqlite:///{tmp_path / 'h.db'}") as db:
         for k in range(3):
@@ -335,8 +335,8 @@ def test_report_from_real_records_through_the_stage_cache(tmp_path, fake_isometr
     from navbench.nav.episode import EpisodeRecord
     from navbench.nav.metrics import score_episode
     from navbench.pipeline.cache import ArtifactStore
-    from navbench.pipeline.db import episode_row_from_score
-    from navbench.pipeline.report import store_loaders
+    from navbench.results.db import episode_row_from_score
+    from navbench.pipeline.loaders import store_loaders
     from navbench.pipeline.artifacts import MAP_FILE, TRAJ_FILE, save_record
     from navbench.worldmodel.grid import GridSpec, VoxelMap, save_map
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from navbench.pipeline.report_goals import difficulty_pivot, split_conditions
+from navbench.report.goals import difficulty_pivot, split_conditions
 
 BASE = "pose_quantisation=off, direction_limit=believed, collision_check=swept, map=online, mapping=perfect, pose=true"
 

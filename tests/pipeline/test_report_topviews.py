@@ -17,9 +17,10 @@ def _goals_html(html: str) -> str:
 
 
 def test_online_report_has_top_views(online_run, tmp_path, monkeypatch):  # noqa: F811
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.report import build_report, store_loaders
-    from navbench.pipeline.report_topviews import TOPVIEWS_PER_GROUP
+    from navbench.results.db import ResultsDB
+    from navbench.pipeline.loaders import store_loaders
+    from navbench.report.build import build_report
+    from navbench.report.topviews import TOPVIEWS_PER_GROUP
 
     root, _ = online_run
     monkeypatch.chdir(root)
@@ -49,9 +50,9 @@ def test_online_report_has_top_views(online_run, tmp_path, monkeypatch):  # noqa
 def test_stored_known_cells_reach_the_report(online_run):  # noqa: F811
     from navbench.pipeline.artifacts import TRAJ_FILE, load_record
     from navbench.pipeline.cache import ArtifactStore
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.report import store_loaders
-    from navbench.pipeline.report_topviews import known_grid
+    from navbench.results.db import ResultsDB
+    from navbench.pipeline.loaders import store_loaders
+    from navbench.report.topviews import known_grid
     from navbench.nav.imagenav import OnlineEpisodeRecord
 
     root, result = online_run
@@ -72,10 +73,10 @@ def test_stored_known_cells_reach_the_report(online_run):  # noqa: F811
 def test_report_without_online_rows_is_unchanged(online_run, tmp_path):  # noqa: F811
     """The same rows as known-map image goals: the goals section with the loaders given is the
     one without them, and no trajectory is loaded."""
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.report import _Page
-    from navbench.pipeline.report_goals import section_goals
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.db import ResultsDB
+    from navbench.report.build import _Page
+    from navbench.report.goals import section_goals
+    from navbench.results.presets import apply_preset
 
     root, _ = online_run
     db = ResultsDB(f"sqlite:///{root / 'onl.db'}")
@@ -100,11 +101,11 @@ def test_report_without_online_rows_is_unchanged(online_run, tmp_path):  # noqa:
 def test_missing_trajectories_are_a_note_naming_level_and_conditions(online_run, tmp_path):  # noqa: F811
     """Rows whose trajectory artifacts are not in this cache (run on another machine): one note
     naming the level, its conditions and how many of the drawn episodes are missing; no figure."""
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.report import _Page
-    from navbench.pipeline.report_topviews import section_online_topviews
-    from navbench.pipeline.score import select_episodes
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.db import ResultsDB
+    from navbench.report.build import _Page
+    from navbench.report.topviews import section_online_topviews
+    from navbench.results.score import select_episodes
+    from navbench.results.presets import apply_preset
 
     root, _ = online_run
     db = ResultsDB(f"sqlite:///{root / 'onl.db'}")
@@ -127,7 +128,7 @@ def test_missing_trajectories_are_a_note_naming_level_and_conditions(online_run,
 def test_panel_outcome(success, reason, expected):
     import pandas as pd
 
-    from navbench.pipeline.report_topviews import _outcome
+    from navbench.report.topviews import _outcome
 
     assert _outcome(pd.Series({"success": success, "end_reason": reason})) == expected
 
@@ -135,7 +136,7 @@ def test_panel_outcome(success, reason, expected):
 def test_first_episodes_take_each_difficulty_in_turn():
     import pandas as pd
 
-    from navbench.pipeline.report_topviews import first_episodes
+    from navbench.report.topviews import first_episodes
 
     rows = pd.DataFrame({"task_id": range(9), "noise": "mid", "estimator": "gt", "seed": 0,
                          "difficulty": ["easy"] * 3 + ["medium"] * 3 + ["hard"] * 3})
@@ -151,7 +152,7 @@ def test_draw_panels_with_estimates_and_missing_parts():
     import pandas as pd
     from matplotlib.figure import Figure
 
-    from navbench.pipeline.report_topviews import draw_online_topviews
+    from navbench.report.topviews import draw_online_topviews
     from tests.pipeline.test_stages import tiny_level
 
     level = tiny_level()

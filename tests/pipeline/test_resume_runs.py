@@ -10,9 +10,9 @@ import pytest
 from typer.testing import CliRunner
 
 from navbench.errors import DatabaseError
-from navbench.pipeline.db import ResultsDB
-from navbench.pipeline.db.resume import describe_selection, resolve_run_ids, resume_chain
-from navbench.pipeline.score import score_table
+from navbench.results.db import ResultsDB
+from navbench.results.db.resume import describe_selection, resolve_run_ids, resume_chain
+from navbench.results.score import score_table
 
 from .test_db import episode
 

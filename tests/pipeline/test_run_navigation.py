@@ -99,8 +99,8 @@ def test_interrupt_then_rerun_gives_the_uninterrupted_result(tmp_path, reference
     # next command, finding its process gone, marks it interrupted
     assert statuses == ["interrupted", "done"]
     assert "run 2 resumes run(s) 1 of the same setup" in res.stdout + res.stderr
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.db.resume import resolve_run_ids
+    from navbench.results.db import ResultsDB
+    from navbench.results.db.resume import resolve_run_ids
 
     with ResultsDB(f"sqlite:///{db}") as rdb:  # the measurement is both runs' episodes
         assert resolve_run_ids(rdb, "latest") == [1, 2]

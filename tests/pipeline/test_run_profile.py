@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from navbench.pipeline.db import ResultsDB
+from navbench.results.db import ResultsDB
 from navbench.pipeline.profiles import load_profile
 from navbench.pipeline.run import RunResult, recorded_run, run_profile
 from tests.bad_input.conftest import project  # noqa: F401  (the scratch-project fixture)

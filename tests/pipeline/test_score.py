@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from navbench.errors import DatabaseError
-from navbench.pipeline.db import ResultsDB
-from navbench.pipeline.score import bootstrap_ci, score_table, spl_matrix, summarise
+from navbench.results.db import ResultsDB
+from navbench.results.score import bootstrap_ci, score_table, spl_matrix, summarise
 
 from .test_db import episode
 
@@ -227,7 +227,7 @@ def test_rows_that_pool_several_setups_are_counted_and_warned(db, tmp_path):
     """The same (level, estimator, noise) stored under two cells (say a quick run and a paper run
     with another map): the row says so, and the CLI warns on stderr."""
     from navbench.cli.main import app
-    from navbench.pipeline.score import mixed_setups, mixed_setups_warning
+    from navbench.results.score import mixed_setups, mixed_setups_warning
 
     _fill(db)
     table = score_table(db, n_boot=20)
@@ -260,7 +260,7 @@ def test_episodes_stored_before_condition_keys_still_score_and_pair(tmp_path):
     d.add_episodes(rid, [episode("c-ours", t, spl_term=0.9) for t in range(3)]
                    + [episode("c-dyn", t, estimator="dynamics", spl_term=0.3) for t in range(3)])
     assert d.episodes_frame()["condition_key"].isna().all()
-    from navbench.pipeline.score import score_tables
+    from navbench.results.score import score_tables
 
     table, paired = score_tables(d, n_boot=50)
     d.close()
@@ -273,7 +273,7 @@ def test_a_runs_cells_keep_their_episodes_when_an_earlier_task_set_stored_some(d
     """--tasks 2 then --tasks 4: the second run's cell holds tasks 0..3; selecting its cells
     keeps all four (the once-per-(setup, task, seed) rule applies after the selection), while
     every stored episode counts tasks 0 and 1 once."""
-    from navbench.pipeline.score import select_episodes
+    from navbench.results.score import select_episodes
 
     from .test_db import FakeTask
 

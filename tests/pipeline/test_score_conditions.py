@@ -8,8 +8,8 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-from navbench.pipeline.db import ResultsDB
-from navbench.pipeline.score import (
+from navbench.results.db import ResultsDB
+from navbench.results.score import (
     UNRECORDED_CONDITIONS,
     conditions_in,
     conditions_label,
@@ -148,7 +148,7 @@ def test_all_prints_the_conditions_of_its_score_csv(two_conditions, tmp_path, ca
     """`navbench all`'s tables come from the score stage's CSV files: they carry the conditions."""
     from navbench.cli._common import console
     from navbench.cli.commands.all import _print_claim, _print_scores
-    from navbench.pipeline.score import paired_differences, select_episodes, summarise
+    from navbench.results.score import paired_differences, select_episodes, summarise
 
     frame = select_episodes(two_conditions, run=2)
     summarise(frame, n_boot=20).to_csv(tmp_path / "score.csv", index=False)
@@ -166,7 +166,7 @@ def test_report_states_the_conditions_and_never_pools_them(two_conditions, tmp_p
     failure counts carry a conditions column; Fig. 4c names the camera, workers and CPU."""
     import pandas as pd
 
-    from navbench.pipeline.report import build_report
+    from navbench.report.build import build_report
 
     d = two_conditions
     r3 = d.start_run("six", "c", {"episode": PAPER_EPISODE, "camera": "half", "workers": 2}, "c")

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from navbench.nav.timing import TIMING_KEYS
-from navbench.pipeline.breakdown import breakdown_rows, format_breakdown, stage_rows
-from navbench.pipeline.db import ResultsDB
+from navbench.results.breakdown import breakdown_rows, format_breakdown, stage_rows
+from navbench.results.db import ResultsDB
 from navbench.pipeline.stages import NavigationSummary
 from tests.bad_input.conftest import project  # noqa: F401  (the scratch-project fixture)
 

@@ -208,7 +208,7 @@ def test_track_eval_1000_steps_with_a_tiny_count_and_kidnapping(tmp_path, level,
 
     from navbench.cli.commands.track_eval import default_trajectories
     from navbench.levelio import save_level
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from tests.bad_input.conftest import nb
 
     assert [default_trajectories(s) for s in (100, 1000, 10, 7000)] == [30, 3, 30, 1]

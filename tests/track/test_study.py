@@ -84,7 +84,7 @@ def test_track_eval_cli_prints_json(tmp_path, level, monkeypatch):
     assert out["meta"]["options"]["ours"] == {"optimizer": "adam", "adam_steps": 10}
     # one stored row per (estimator, trajectory, seed): 2 each, emission limited to 1
     assert out["meta"]["stored"]["rows"] == 4 * 2 + 1
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     frame = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}").tracking_frame()
     assert len(frame) == 9
@@ -96,7 +96,7 @@ def test_track_eval_cli_prints_json(tmp_path, level, monkeypatch):
 def test_track_eval_rerun_stores_no_duplicates(tmp_path, level, monkeypatch):
     from navbench.cli.main import app
     from navbench.levelio import save_level
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     monkeypatch.chdir(tmp_path)
     path = save_level(level, tmp_path / f"{level.name}.json")  # a level file is NAME.json

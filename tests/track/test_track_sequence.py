@@ -34,7 +34,7 @@ def _tum_lines(path):
 
 
 def test_cli_equals_api_and_writes_strict_tum(scene, tmp_path, monkeypatch):
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
     from navbench.pipeline.tracking import track_sequence
 
     root, seq, views = scene

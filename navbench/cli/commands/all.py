@@ -22,7 +22,7 @@ def _print_scores(path: Path) -> None:
     import pandas as pd
 
     from navbench.cli.commands.score import conditions_caption
-    from navbench.pipeline.score import conditions_in, short_conditions
+    from navbench.results.score import conditions_in, short_conditions
 
     rows = list(csv.DictReader(open(path)))
     frame = pd.DataFrame(rows)
@@ -107,14 +107,14 @@ def register(app: typer.Typer) -> None:
                                                     command=command_line(), ref_name="all"))
         _print_scores(result.score.path)
         _print_claim(result.score.path.parent / PAIRED_FILE, result.profile.scoring_preset)
-        from navbench.pipeline.breakdown import format_breakdown
+        from navbench.results.breakdown import format_breakdown
 
         console.print(f"where the time went (run {result.run_id}; stored in the database's run_timings):",
                       highlight=False)
         console.print(escape(format_breakdown(result.breakdown)), highlight=False)
         from navbench.config import to_jsonable
-        from navbench.pipeline.score import conditions_label
-        from navbench.pipeline.stages.online import online_label
+        from navbench.results.score import conditions_label
+        from navbench.results.labels import online_label
 
         nav = result.navigation
         label = conditions_label(dict(result.profile.episode)) + online_label(to_jsonable(result.profile))

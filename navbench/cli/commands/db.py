@@ -20,7 +20,7 @@ def info(db: str = _DB_OPTION):
     """Show the database URL (password hidden) and the number of rows per table."""
     from rich.table import Table
 
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     with ResultsDB(db, create=False) as rdb:
         counts = rdb.table_counts()
@@ -43,7 +43,7 @@ def runs(
     git commit, host."""
     from rich.table import Table
 
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     with ResultsDB(db, create=False) as rdb:
         every = rdb.runs_frame()
@@ -51,7 +51,7 @@ def runs(
         episodes = rdb.episodes_frame()
     per_run = episodes.groupby("run_id").size() if not episodes.empty else {}
     table = Table(title=f"{len(frame)} most recent runs")
-    from navbench.pipeline.db.resume import resume_chain
+    from navbench.results.db.resume import resume_chain
 
     for col in ("id", "profile", "command", "status", "started (UTC)", "seconds", "episodes",
                 "resumes", "commit", "host"):

@@ -49,7 +49,7 @@ def register(app: typer.Typer) -> None:
         except ValueError:
             raise ConfigError(f"--task: expected comma-separated whole numbers, got {task!r}") from None
         with open_db(db) as rdb:
-            from navbench.pipeline.db.resume import resolve_run_ids
+            from navbench.results.db.resume import resolve_run_ids
 
             run_id = resolve_run_ids(rdb, run, latest="any")
             pairs = export_trajectories(out, rdb, run=run_id, level=parse_list(level) or None,

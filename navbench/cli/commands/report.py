@@ -34,9 +34,10 @@ def report(
     import tempfile
     from pathlib import Path
 
-    from navbench.pipeline.publish import check_report_dir, protected_paths, publish
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.report import build_report, store_loaders
+    from navbench.report.publish import check_report_dir, protected_paths, publish
+    from navbench.results.db import ResultsDB
+    from navbench.pipeline.loaders import store_loaders
+    from navbench.report.build import build_report
 
     from navbench.nav.presets import get_preset
     from navbench.outpath import writing
@@ -50,14 +51,14 @@ def report(
     load_trajectory, load_map = store_loaders(cache)
     with ResultsDB(db, create=False) as rdb:
         from navbench.cli._common import err_console
-        from navbench.pipeline.db.resume import resolve_selection
+        from navbench.results.db.resume import resolve_selection
 
         selection, chain = resolve_selection(rdb, run)
         if chain:
             err_console.print(escape(chain), markup=True)
         if preset is None:  # score's default: nrns for unknown-house episodes alone, else paper
-            from navbench.pipeline.score import select_episodes
-            from navbench.pipeline.score_presets import default_preset
+            from navbench.results.score import select_episodes
+            from navbench.results.presets import default_preset
 
             preset, mixed = default_preset(select_episodes(rdb, run=selection))
             if mixed:

@@ -59,13 +59,13 @@ def score(
 
     from rich.markup import escape
 
-    from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.db.resume import resolve_selection
+    from navbench.results.db import ResultsDB
+    from navbench.results.db.resume import resolve_selection
     from navbench.cli._common import err_console
     from navbench.nav.presets import get_preset
-    from navbench.pipeline.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
+    from navbench.results.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
                                          select_episodes, short_conditions, table_records)
-    from navbench.pipeline.score_presets import apply_preset, default_preset, missing_distances
+    from navbench.results.presets import apply_preset, default_preset, missing_distances
 
     if preset is not None:
         get_preset(preset, "--preset")  # before opening the database
@@ -100,7 +100,7 @@ def score(
         table.to_csv(sys.stdout, index=False, float_format="%.6g")
         return
     if fmt is Format.markdown:  # the README's results table (pooled rows), beside the paper's
-        from navbench.pipeline.results_table import markdown_results
+        from navbench.report.tables import markdown_results
 
         sys.stdout.write(markdown_results(table, paired))
         return
@@ -143,7 +143,7 @@ def score(
 
 def conditions_caption(table) -> str:
     """The line under a table that states its simulator conditions (every one named)."""
-    from navbench.pipeline.score import conditions_in
+    from navbench.results.score import conditions_in
 
     found = conditions_in(table)
     if len(found) == 1:
@@ -156,7 +156,7 @@ def _difficulty_table(by_diff, escape, preset: str):
     """Issue 15: success, SPL, SoftSPL and final distance by goal kind and NRNS difficulty."""
     from rich.table import Table
 
-    from navbench.pipeline.score import short_conditions
+    from navbench.results.score import short_conditions
 
     out = Table(title=f"by NRNS difficulty (geodesic easy 1.5-3 m, medium 3-5 m, hard 5-10 m), preset "
                       f"{escape(preset)}: success [95% exact interval], means")
@@ -179,7 +179,7 @@ def _paired_table(paired, escape, preset: str = "paper"):
     (and per conditions, when the table holds several)."""
     from rich.table import Table
 
-    from navbench.pipeline.score import NOISE_ORDER, _order_key, conditions_in, short_conditions
+    from navbench.results.score import NOISE_ORDER, _order_key, conditions_in, short_conditions
 
     out = Table(title=f"paired differences on the same (task, seed), preset {escape(preset)}: mean "
                       "[95% bootstrap interval, stratified by level]", caption=escape(conditions_caption(paired)))

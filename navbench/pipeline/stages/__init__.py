@@ -7,7 +7,7 @@ log and progress callbacks, the ``force`` set), its config and the references of
 returns a reference (stage, key, path) to its verified artifact. Keys are computed before any
 work (:func:`navbench.pipeline.cache.run_stage`), so a cached stage costs one checksum pass.
 Stages never build SQL or ad-hoc paths: artifacts live in the store under the names of
-:mod:`navbench.pipeline.artifacts`, rows go through :class:`navbench.pipeline.db.ResultsDB`.
+:mod:`navbench.pipeline.artifacts`, rows go through :class:`navbench.results.db.ResultsDB`.
 Heavy work and torch are imported inside the compute functions only: a fully cached pipeline
 never loads torch (resolving the FitConfig defaults for the fit-map key imports the world-model
 module, which brings numba) and takes about a second.

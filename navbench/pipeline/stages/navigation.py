@@ -42,7 +42,7 @@ class NavigationSummary:
 
 
 def _row(job: EpisodeJob, record: Any, score: Any, traj_key: str, goals: dict | None = None) -> dict:
-    from navbench.pipeline.db import episode_row_from_score
+    from navbench.results.db import episode_row_from_score
     from navbench.pipeline.stages.goals import goal_row_fields
     from navbench.pipeline.stages.online import online_row_fields
 
@@ -98,7 +98,7 @@ def _score_differs(stored: dict, score: Any) -> list[str]:
 
 def _same_task_trajectories(ctx: StageContext, jobs: list[EpisodeJob]) -> dict[tuple[str, int, int], str]:
     """For jobs not stored in their own cell: the trajectory key of a stored episode that is the
-    same experiment under another task set -- the identity :func:`navbench.pipeline.score.with_identities`
+    same experiment under another task set -- the identity :func:`navbench.results.score.with_identities`
     counts once (setup, task id with its start and target, seed) -- so a larger ``--tasks``
     extends a cell without simulating its first tasks again. Episodes are deterministic in exactly
     these (their seeds come from the level, task id and seed: :func:`episode_seeds`), so the
@@ -112,7 +112,7 @@ def _same_task_trajectories(ctx: StageContext, jobs: list[EpisodeJob]) -> dict[t
         return {}
     import pandas as pd
 
-    from navbench.pipeline.score import with_identities
+    from navbench.results.score import with_identities
 
     mine = pd.DataFrame([{"cell_key": j.cell.key, "condition_key": j.cell.condition_key,
                           "estimator": j.cell.estimator, "estimator_options": j.cell.options,

@@ -10,7 +10,7 @@ key adds ``{"online": ...}`` (the sensing model and the loop's full :class:`Imag
 no key of another map mode changes and no online row shares a cell or a setup with them.
 
 The sensing and pose model is explicit (:class:`OnlineConfig`), part of the key and of the
-``conditions`` label :mod:`navbench.pipeline.score` groups by (:func:`online_label`):
+``conditions`` label :mod:`navbench.results.score` groups by (:func:`online_label`):
 
 * ``mapping = "perfect"``: what the agent knows of a cell it has seen is the truth (the level's
   ``true-map`` artifact, the voxelized true geometry); only coverage is earned
@@ -39,16 +39,14 @@ import math
 from dataclasses import dataclass
 
 from navbench.errors import ConfigError
+# the results side labels and scores these runs; the names live there (re-exported here)
+from navbench.results.labels import ONLINE_MAPS, ONLINE_PRESET, online_label  # noqa: F401
 
-#: ``--map`` values of the unknown-house loop -> the mapping model they select.
-ONLINE_MAPS = {"online": "perfect", "online-fused": "fused"}
 MAPPINGS = ("perfect", "fused")
 #: The estimators (the pose model) each mapping accepts: ``gt`` the true pose, ``ours`` tracked.
 ONLINE_ESTIMATORS = {"perfect": ("gt",), "fused": ("gt", "ours")}
 #: The default estimator of the online map modes (the true pose).
 ONLINE_ESTIMATOR = "gt"
-#: The scoring preset of this map mode when the profile keeps the default ``paper``.
-ONLINE_PRESET = "nrns"
 #: Bumped when the loop gives other episodes for the same settings (part of the cell key).
 LOOP_VERSION = 1
 #: RNR-Map's Table 4 rows in navbench's terms (``--online-ablation``): the full model,
@@ -160,21 +158,6 @@ def online_key_part(cfg) -> dict:
 
         part["fusion"] = {**to_jsonable(FusionConfig()), "version": FUSION_VERSION}
     return {"online": part}
-
-
-def online_label(run_config) -> str:
-    """The suffix the ``conditions`` label of a run's episodes gets (``""`` unless its recorded
-    profile config says ``map_source`` online): ``", map=online, mapping=perfect, pose=true"``
-    (``pose=estimator`` when the run's estimators are not just ``gt``: ``ours`` tracks)."""
-    if not isinstance(run_config, dict):
-        return ""
-    cfg = online_config(str(run_config.get("map_source", "")))
-    if cfg is None:
-        return ""
-    pose = "true" if list(run_config.get("estimators") or ["gt"]) == ["gt"] else "estimator"
-    ablation = run_config.get("online_ablation") or "full"
-    return (f", map={run_config['map_source']}, mapping={cfg.mapping}, pose={pose}"
-            + ("" if ablation == "full" else f", ablation={ablation}"))
 
 
 def run_online_episode(level, full_map, task, simulator, intrinsics, cfg: OnlineConfig, loop,

@@ -12,14 +12,15 @@ from navbench.pipeline.stages.score import episodes_state_key
 
 
 def report_stage(ctx: StageContext, cells: list[Cell], score: Ref, preset: str = "paper") -> Ref:
-    """The HTML report (:func:`navbench.pipeline.report.build_report`) of these cells' episodes
+    """The HTML report (:func:`navbench.report.build.build_report`) of these cells' episodes
     (as the score stage), with trajectories and maps read from this store, cached by the score
     artifact and the cells' stored episodes (so a rerun that adds nothing does not redraw it;
     its run list is as of the last redraw)."""
     state = episodes_state_key(ctx, cells)
 
     def compute(d: Path) -> None:
-        from navbench.pipeline.report import build_report, store_loaders
+        from navbench.pipeline.loaders import store_loaders
+        from navbench.report.build import build_report
 
         load_trajectory, load_map = store_loaders(ctx.store.root)
         index = Path(build_report(ctx.db, d, load_trajectory, load_map, levels_dir=ctx.levels_dir,

@@ -19,20 +19,20 @@ def episodes_state_key(ctx: StageContext, cells: list[Cell]) -> str:
 
 
 def score_stage(ctx: StageContext, cells: list[Cell], preset: str = "paper") -> Ref:
-    """The score table of exactly these cells (:func:`navbench.pipeline.score.select_episodes`
-    restricted to the cells' keys, then :func:`~navbench.pipeline.score.summarise`), cached by
+    """The score table of exactly these cells (:func:`navbench.results.score.select_episodes`
+    restricted to the cells' keys, then :func:`~navbench.results.score.summarise`), cached by
     the set of stored episodes; the artifact is ``score.csv`` and, beside it,
-    ``paired_differences.csv`` (:func:`~navbench.pipeline.score.paired_differences`: the paper's
+    ``paired_differences.csv`` (:func:`~navbench.results.score.paired_differences`: the paper's
     claim, ``ours`` minus each ablation on the same tasks and seeds), and
-    ``by_difficulty.csv`` (:func:`~navbench.pipeline.score.difficulty_table`), all under
+    ``by_difficulty.csv`` (:func:`~navbench.results.score.difficulty_table`), all under
     the scoring ``preset`` (:mod:`navbench.nav.presets`; part of the key unless ``paper``)."""
     state = episodes_state_key(ctx, cells)
     levels = sorted({c.level for c in cells})
 
     def compute(d: Path) -> None:
-        from navbench.pipeline.score import paired_differences, select_episodes, summarise
-        from navbench.pipeline.score import difficulty_table
-        from navbench.pipeline.score_presets import apply_preset
+        from navbench.results.score import paired_differences, select_episodes, summarise
+        from navbench.results.score import difficulty_table
+        from navbench.results.presets import apply_preset
 
         frame = apply_preset(select_episodes(ctx.db, level=levels, cell_keys=cell_keys), preset)
         summarise(frame).to_csv(d / SCORE_FILE, index=False)

@@ -2,12 +2,12 @@
 
 For ``run-navigation --goal image --map online|online-fused`` rows, per level and set of
 conditions, one figure with a panel per episode (the first :data:`TOPVIEWS_PER_GROUP`): the
-level seen from above (:func:`navbench.pipeline.plots.plot_level_runs`), the cells the agent had
+level seen from above (:func:`navbench.report.plots.plot_level_runs`), the cells the agent had
 seen when the episode ended shaded (the record's ``known (nx, ny)`` planning cells, on the grid
 of the map the loop read: :func:`known_grid`), the true path (the estimated one dashed when it
 differs), start dot, true goal star, stop point, the outcome in the title and the goal image the
 agent was given beneath (rendered again from the level file: the ``half`` camera, the target and
-the stored heading, as :func:`navbench.pipeline.report_goals._draw_goals`).
+the stored heading, as :func:`navbench.report.goals._draw_goals`).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def first_episodes(rows, n: int = TOPVIEWS_PER_GROUP):
     """The episodes of ``rows`` drawn: ordered by noise, estimator, seed and task, then taken one
     difficulty after the other (easy, medium, hard, other: :data:`DIFFICULTY_ORDER`) so that a
     capped figure shows every difficulty; the first ``n``."""
-    from navbench.pipeline.score_presets import DIFFICULTY_ORDER
+    from navbench.results.presets import DIFFICULTY_ORDER
 
     order = [c for c in ("noise", "estimator", "seed", "task_id") if c in rows.columns]
     rows = rows.sort_values(order, kind="stable")
@@ -84,7 +84,7 @@ def section_online_topviews(page: Any, rows, levels_dir: Path | None, load_traje
     level and conditions; notes instead where the level file or the trajectories are missing."""
     from navbench.errors import NavbenchError
     from navbench.levelio import load_level
-    from navbench.pipeline.score import short_conditions
+    from navbench.results.score import short_conditions
 
     if levels_dir is None or load_trajectory is None:
         page.note("Online image-goal episodes: no level directory or trajectory loader given; "
@@ -145,7 +145,7 @@ def draw_online_topviews(fig, level, episodes, grid, several: bool = False) -> N
     from matplotlib.gridspec import GridSpec
 
     from navbench.geometry import CAMERA_HEIGHT, camera_by_name
-    from navbench.pipeline.plots import plot_level_runs, plot_planning_slice
+    from navbench.report.plots import plot_level_runs, plot_planning_slice
     from navbench.sim.camera import RaycastCamera
 
     cam = RaycastCamera(level, camera_by_name("half"), CAMERA_HEIGHT)

@@ -2,7 +2,7 @@
 the paper's, the paper's claim as paired differences, and the simulator conditions they ran
 under (``navbench score --format markdown``).
 
-Inputs are the two tables of :func:`navbench.pipeline.score.score_tables`; one block per set of
+Inputs are the two tables of :func:`navbench.results.score.score_tables`; one block per set of
 conditions (episodes of different conditions are never pooled), each from the pooled
 (``level = "all"``) rows. Pure formatting: no database, no I/O.
 """
@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from navbench.pipeline.score import (
+from navbench.results.score import (
     CLAIM_REFERENCE,
     ESTIMATOR_ORDER,
     NOISE_ORDER,
@@ -54,7 +54,7 @@ def markdown_results(table: "pandas.DataFrame", paired: "pandas.DataFrame", leve
     2. per noise level, each estimator's success rate with its exact (Clopper-Pearson) interval
        (the paper gives none), and the episodes and pairs behind each figure.
     """
-    from navbench.pipeline.plots import PAPER_SPL
+    from navbench.report.plots import PAPER_SPL
 
     blocks = []
     for conds in conditions_in(table) or [None]:

@@ -18,7 +18,7 @@ beside the frame-less ``dynamics``.
 
 :func:`breakdown_rows` builds the rows (plain dicts: ``kind, name, seconds, count, cached``), the
 results database stores them with the run (:meth:`ResultsDB.add_run_timings
-<navbench.pipeline.db.ResultsDB.add_run_timings>`, table ``run_timings``), :func:`format_breakdown`
+<navbench.results.db.ResultsDB.add_run_timings>`, table ``run_timings``), :func:`format_breakdown`
 lays them out as text (the CLI prints it at the end of ``navbench all``).
 """
 

@@ -6,7 +6,7 @@ relative to the current working directory (``results/`` is created), overridden 
 ``NAVBENCH_DB`` environment variable or an explicit URL (the CLI's ``--db``). SQLite and
 PostgreSQL (``postgresql+psycopg://user@host/db``, extra ``navbench[postgres]``) are tested.
 
-Tables (SQLAlchemy 2 declarative models in :mod:`navbench.pipeline.db.schema`):
+Tables (SQLAlchemy 2 declarative models in :mod:`navbench.results.db.schema`):
 
 * ``runs`` -- one row per pipeline invocation: profile, command, resolved config (JSON) and its
   hash, navbench version, git commit (null outside a git checkout), host, CPU, start/finish
@@ -26,7 +26,7 @@ Tables (SQLAlchemy 2 declarative models in :mod:`navbench.pipeline.db.schema`):
 * ``sequence_tracking`` -- one RGB-D sequence tracked by ``track-sequence`` (ATE, RPE, ms per
   frame), unique on its sequence key (sequence, map, odometry, estimator, options, seed).
 * ``bench`` -- one measured benchmark metric, unique on (run_id, metric, device).
-* ``run_timings`` -- where a run's time went (:mod:`navbench.pipeline.breakdown`): per stage
+* ``run_timings`` -- where a run's time went (:mod:`navbench.results.breakdown`): per stage
   and per episode timing component, unique on (run_id, kind, name).
 
 Duplicate rows are impossible: every ``add_*``/``record_*`` inserts with the dialect's
@@ -40,14 +40,14 @@ missing (``_ADDED_COLUMNS``; older navbench versions ignore them). Tables and co
 created under a lock (SQLite ``BEGIN IMMEDIATE``, a PostgreSQL advisory lock), so commands
 that open a fresh database at the same moment do not trip over each other.
 
-Modules: :mod:`~navbench.pipeline.db.schema` (tables, constants, the database URL),
-:mod:`~navbench.pipeline.db.rows` (values into rows, machine facts) and
-:mod:`~navbench.pipeline.db.store` (:class:`ResultsDB`). Import from this package: the names
+Modules: :mod:`~navbench.results.db.schema` (tables, constants, the database URL),
+:mod:`~navbench.results.db.rows` (values into rows, machine facts) and
+:mod:`~navbench.results.db.store` (:class:`ResultsDB`). Import from this package: the names
 below are its interface.
 """
 
-from navbench.pipeline.db.rows import cpu_description, episode_row_from_score, git_commit
-from navbench.pipeline.db.schema import (
+from navbench.results.db.rows import cpu_description, episode_row_from_score, git_commit
+from navbench.results.db.schema import (
     DB_ENV,
     DEFAULT_DB_URL,
     RUN_STATUSES,
@@ -65,7 +65,7 @@ from navbench.pipeline.db.schema import (
     TrackingRow,
     resolve_db_url,
 )
-from navbench.pipeline.db.store import ResultsDB
+from navbench.results.db.store import ResultsDB
 
 __all__ = [
     "DB_ENV", "DEFAULT_DB_URL", "RUN_STATUSES", "SCHEMA_VERSION", "Base", "BenchRow", "EpisodeRow",

@@ -6,7 +6,7 @@ single value recorded the first time it completed (reruns skip done keys). A cel
 its task set, so ``--tasks 2`` then ``--tasks 4`` store tasks 0 and 1 under two cells: episodes
 are therefore counted once per (setup, task, seed) (:func:`with_identities`: the setup is the
 cell without its task set, the task is its start and target), the first stored row kept. ``run``
-narrows this to the episodes given runs inserted (:mod:`navbench.pipeline.db.resume`): a
+narrows this to the episodes given runs inserted (:mod:`navbench.results.db.resume`): a
 resumed run owns only the episodes it added, so ``"latest"`` is the newest run that stored
 episodes with the interrupted runs of the same configuration it resumed, and explicit ids are
 literal (``"4,5,6"``).
@@ -52,7 +52,7 @@ from navbench.nav.metrics import clopper_pearson, stratified_bootstrap_ci
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
 
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
 NOISE_ORDER = ("none", "tracking", "low", "mid", "high")
 ESTIMATOR_ORDER = ("ours", "no-map", "dynamics", "emission", "gt")
@@ -141,7 +141,7 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
     """The episodes that count (see the module docstring), optionally of one run, level(s) and
     cells (``cell_keys``: a run's grid); the selection comes before the once-per-(setup, task,
     seed) rule, so a run's own cells keep all their episodes."""
-    from navbench.pipeline.db.resume import resolve_run_ids
+    from navbench.results.db.resume import resolve_run_ids
 
     run_ids = resolve_run_ids(db, run)
     levels = [level] if isinstance(level, str) else level
@@ -182,7 +182,7 @@ def with_conditions(frame: "pandas.DataFrame", runs: "pandas.DataFrame") -> "pan
     ``condition_key`` (a hash) also covers them but cannot be read back. Scoring groups and
     pairs by this label too, so episodes of different conditions never share a row."""
     configs = dict(zip(runs["id"], runs["config"])) if not runs.empty else {}
-    from navbench.pipeline.stages.online import online_label
+    from navbench.results.labels import online_label
 
     labels = {rid: conditions_label(cfg.get("episode") if isinstance(cfg, dict) else None) + online_label(cfg)
               for rid, cfg in configs.items()}
@@ -269,13 +269,13 @@ def summarise(frame: "pandas.DataFrame", n_boot: int = N_BOOT, seed: int = 0,
     are per (level, estimator, noise, conditions, goal), so episodes run under different
     conditions never pool into one row. Then (issue 15) ``goal``, ``preset`` and the
     :data:`PRESET_METRICS` with their intervals. Success and SPL follow the scoring ``preset``
-    (:func:`navbench.pipeline.score_presets.apply_preset`; default the frame's own, else
+    (:func:`navbench.results.presets.apply_preset`; default the frame's own, else
     ``paper``: the stored values). Rows sorted by level ("all" last), conditions (the defaults
     first), noise, goal, estimator.
     """
     import pandas as pd
 
-    from navbench.pipeline.score_presets import GOAL_ORDER, apply_preset
+    from navbench.results.presets import GOAL_ORDER, apply_preset
 
     columns = ["level", "estimator", "noise", "episodes", "setups"]
     for name, _, _ in METRICS:
@@ -354,7 +354,7 @@ def score_table(db: "ResultsDB", run: int | str | None = None, level: str | list
     """Score the stored episodes: :func:`select_episodes` then :func:`summarise` under the
     scoring ``preset``. Raises :class:`DatabaseError` when no episode matches.
     """
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.presets import apply_preset
 
     return summarise(apply_preset(_selected(db, run, level), preset), n_boot=n_boot, seed=seed)
 
@@ -365,7 +365,7 @@ def score_tables(db: "ResultsDB", run: int | str | None = None, level: str | lis
     """``(score table, paired differences)`` of the stored episodes: :func:`score_table` and
     :func:`paired_differences` of the same selection, both under the scoring ``preset``.
     Raises :class:`DatabaseError` when no episode matches."""
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.presets import apply_preset
 
     frame = apply_preset(_selected(db, run, level), preset)
     return (summarise(frame, n_boot=n_boot, seed=seed),
@@ -533,7 +533,7 @@ def difficulty_table(frame: "pandas.DataFrame", preset: str = "paper") -> "panda
     :func:`summarise`: episodes of other conditions or map modes never pool)."""
     import pandas as pd
 
-    from navbench.pipeline.score_presets import DIFFICULTY_ORDER, GOAL_ORDER, apply_preset
+    from navbench.results.presets import DIFFICULTY_ORDER, GOAL_ORDER, apply_preset
 
     cols = ["preset", "level", "estimator", "noise", "goal", "difficulty", "episodes", "success_rate",
             "success_rate_ci_low", "success_rate_ci_high", "spl", "soft_spl", "final_dist_m", "conditions"]

@@ -1,7 +1,7 @@
 """The results database's tables (SQLAlchemy 2 declarative models) and their constants.
 
-The layout is described in :mod:`navbench.pipeline.db`; this module only declares it, plus the
-columns each ``add_*`` of :class:`~navbench.pipeline.db.store.ResultsDB` accepts from its caller.
+The layout is described in :mod:`navbench.results.db`; this module only declares it, plus the
+columns each ``add_*`` of :class:`~navbench.results.db.store.ResultsDB` accepts from its caller.
 """
 
 from __future__ import annotations
@@ -312,7 +312,7 @@ _SEQUENCE_REQUIRED = ("sequence_key", "sequence", "sequence_hash", "estimator", 
 
 
 class RunTimingRow(Base):
-    """Where a run's time went (:mod:`navbench.pipeline.breakdown`): one row per stage (``kind``
+    """Where a run's time went (:mod:`navbench.results.breakdown`): one row per stage (``kind``
     ``stage``: wall-clock seconds, calls, cache hits) and per episode timing component (``kind``
     ``component``: worker seconds summed over steps, ``count`` the steps or episodes)."""
 

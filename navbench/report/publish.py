@@ -16,7 +16,7 @@ def protected_paths(db_url: str | None = None, cache_root: str | Path = "results
                     levels_dir: str | Path = "levels", tasks_dir: str | Path = "tasks") -> list[Path]:
     """What a report must never be written over, into or around: the stage cache, the SQLite
     database file, the level and task folders."""
-    from navbench.pipeline.db import resolve_db_url
+    from navbench.results.db import resolve_db_url
 
     paths = [Path(cache_root), Path(levels_dir), Path(tasks_dir)]
     url = resolve_db_url(db_url)

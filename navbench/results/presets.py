@@ -1,6 +1,6 @@
 """Scoring presets over stored episodes (issue 15 §4; the rules: :mod:`navbench.nav.presets`).
 
-:func:`apply_preset` turns an episodes frame (:func:`navbench.pipeline.score.select_episodes`)
+:func:`apply_preset` turns an episodes frame (:func:`navbench.results.score.select_episodes`)
 into the frame a preset scores: ``success`` and ``spl_term`` under the preset (``paper``: the
 stored columns, untouched), plus ``soft_spl_term`` (habitat's SoftSPL), ``dist_to_goal_m``
 (the preset's final distance), ``goal`` (``point`` where the row says nothing: rows stored
@@ -60,7 +60,7 @@ def apply_preset(frame: "pandas.DataFrame", preset: str = DEFAULT_PRESET,
     return f
 
 
-#: The substring of the ``conditions`` label (:func:`navbench.pipeline.score.with_conditions`)
+#: The substring of the ``conditions`` label (:func:`navbench.results.score.with_conditions`)
 #: that marks an unknown-house episode (``--map online|online-fused``).
 ONLINE_MARK = "map=online"
 
@@ -76,9 +76,9 @@ def online_rows(frame: "pandas.DataFrame") -> int:
 def default_preset(frame: "pandas.DataFrame") -> tuple[str, str | None]:
     """``(preset, warning)``: the preset ``score`` uses when none is given. ``paper``, except for a
     selection of unknown-house episodes only: ``nrns`` (the loop's agent stops on its own, which
-    ``paper`` does not read; :data:`navbench.pipeline.stages.online.ONLINE_PRESET`). A selection
+    ``paper`` does not read; :data:`navbench.results.labels.ONLINE_PRESET`). A selection
     that mixes both is scored under ``paper`` with a warning naming the online episodes."""
-    from navbench.pipeline.stages.online import ONLINE_PRESET
+    from navbench.results.labels import ONLINE_PRESET
 
     n = online_rows(frame)
     if n and n == len(frame):

@@ -1,9 +1,9 @@
 """Report sections of issue 16: the paper's claim as paired differences, why episodes end, and
 the per-step speed beside the paper's Fig. 4c.
 
-Each ``section_*`` function appends to a report page (:class:`navbench.pipeline.report._Page`,
+Each ``section_*`` function appends to a report page (:class:`navbench.report.build._Page`,
 passed in: this module does not import the report, which imports it) and reads plain frames:
-the episodes of :func:`navbench.pipeline.score.select_episodes`, bench rows.
+the episodes of :func:`navbench.results.score.select_episodes`, bench rows.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from navbench.pipeline.score import (
+from navbench.results.score import (
     CLAIM_OTHERS,
     CLAIM_REFERENCE,
     ESTIMATOR_ORDER,
@@ -45,7 +45,7 @@ def _fmt(v: float, lo: float, hi: float, d: int = 3) -> str:
 
 def paper_difference(noise: str, other: str) -> float:
     """The paper's ``ours - other`` SPL margin at ``noise`` (Fig. 5a), nan when it has none."""
-    from navbench.pipeline.plots import PAPER_SPL
+    from navbench.report.plots import PAPER_SPL
 
     a = PAPER_SPL.get((noise, CLAIM_REFERENCE))
     b = PAPER_SPL.get((noise, other.split("{")[0]))
@@ -80,7 +80,7 @@ def claim_tables(paired: "pandas.DataFrame") -> dict[str, "pandas.DataFrame"]:
 def section_claim(page: Any, episodes: "pandas.DataFrame", n_boot: int, seed: int) -> None:
     """The paper's claim (Fig. 5a's margins): ``ours - no-map`` and ``ours - dynamics`` on the
     same tasks and seeds, one table per noise level, a figure, and ``paired_differences.csv``."""
-    from navbench.pipeline.plots import plot_paired_differences
+    from navbench.report.plots import plot_paired_differences
 
     page.h2("The paper's claim: ours against each ablation on the same episodes", "claim")
     if episodes is None or episodes.empty:
@@ -124,7 +124,7 @@ def end_reason_counts(episodes: "pandas.DataFrame") -> "pandas.DataFrame":
     """Episodes by end reason per (estimator, noise, conditions): columns ``episodes``, one per
     end reason (``reached``, ``step-limit``, ``stuck``, ``no-plan``, then any other),
     ``collided`` (the episodes whose agent hit a wall or furniture) and ``failed`` (not a
-    success). ``conditions`` (the short label, :func:`~navbench.pipeline.score.short_conditions`)
+    success). ``conditions`` (the short label, :func:`~navbench.results.score.short_conditions`)
     appears only when the episodes ran under more than one set of conditions."""
     import pandas as pd
 
@@ -207,7 +207,7 @@ def speed_vs_paper(episodes: "pandas.DataFrame", bench: "pandas.DataFrame") -> "
     one process), next to the paper's GPU figures."""
     import pandas as pd
 
-    from navbench.bench.core import PAPER_FIGURES
+    from navbench.paper import PAPER_FIGURES
 
     def ep(est: str, col: str) -> float:
         if episodes.empty:
@@ -276,7 +276,7 @@ def section_speed_vs_paper(page: Any, episodes: "pandas.DataFrame", bench: "pand
                            runs: "pandas.DataFrame | None" = None) -> None:
     """The Fig. 4c table beside the paper's numbers, with the conditions stated (``runs``: the
     runs table, for the episodes' camera, workers and CPU)."""
-    from navbench.bench.core import PAPER_HARDWARE
+    from navbench.paper import PAPER_HARDWARE
 
     t = speed_vs_paper(episodes, bench)
     page.table(t, "runtime_vs_paper", "Fig. 4c beside the paper: median milliseconds per step "
@@ -313,7 +313,7 @@ def draw_fig3(fig, level, tasks, panels: dict, planning_slice=None) -> None:
     inferred (dashed) path; a shared legend."""
     from matplotlib.lines import Line2D
 
-    from navbench.pipeline.plots import estimator_colour, plot_level_runs
+    from navbench.report.plots import estimator_colour, plot_level_runs
 
     axes = np.atleast_1d(fig.subplots(1, max(len(panels), 1)))
     variants: dict[str, str] = {}
@@ -341,7 +341,7 @@ def draw_fig3(fig, level, tasks, panels: dict, planning_slice=None) -> None:
     if planning_slice is not None:
         from matplotlib.patches import Patch
 
-        from navbench.pipeline.plots import SLICE_COLOUR
+        from navbench.report.plots import SLICE_COLOUR
 
         handles.append(Patch(facecolor=SLICE_COLOUR[:3] + (0.3,), edgecolor=SLICE_COLOUR[:3],
                              label="learned planning slice (band)"))

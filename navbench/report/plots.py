@@ -1,7 +1,7 @@
 """Report figures. Every function draws into the matplotlib axis it is given; none creates a
 figure or a file (the report owns both).
 
-Inputs are plain tables and arrays: a score table (:func:`navbench.pipeline.score.summarise`),
+Inputs are plain tables and arrays: a score table (:func:`navbench.results.score.summarise`),
 value arrays per label, a level, trajectory dicts ``{"true_poses": (T + 1, 3),
 "est_poses": (T + 1, 3), "target": (2,)}`` in world metres.
 """
@@ -14,7 +14,7 @@ import numpy as np
 
 from navbench.geometry import AGENT_LENGTH
 from navbench.nav.timing import TIMING_KEYS
-from navbench.pipeline.score import ESTIMATOR_ORDER, NOISE_ORDER, _order_key
+from navbench.results.score import ESTIMATOR_ORDER, NOISE_ORDER, _order_key
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
@@ -94,7 +94,7 @@ def plot_paired_differences(ax, paired: "pandas.DataFrame", paper_margin=None) -
     comparison (points), with its 95 % interval as error bars, a zero line, and the paper's
     margin ``paper_margin(noise, other)`` (a callable, or None) as black ticks.
 
-    ``paired``: rows of :func:`navbench.pipeline.score.paired_differences` for one level.
+    ``paired``: rows of :func:`navbench.results.score.paired_differences` for one level.
     """
     noises = sorted(paired["noise"].unique(), key=lambda n: _order_key(n, NOISE_ORDER))
     others = sorted(paired["other"].unique(),

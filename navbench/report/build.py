@@ -1,12 +1,13 @@
 """The results report: one self-contained ``index.html`` plus a CSV file of every table.
 
 :func:`build_report` reads the results database only (scores are recomputed offline from the
-stored episode rows), draws the paper's figures with :mod:`navbench.pipeline.plots` and embeds
+stored episode rows), draws the paper's figures with :mod:`navbench.report.plots` and embeds
 them as base64 PNG (no external resources: no scripts, fonts or style sheets are fetched).
 Trajectories and maps come through two callables so the report does not depend on where they
 are stored: ``load_trajectory(traj_key) -> {"true_poses", "est_poses", "target"}`` and
 ``load_map(map_key) -> WorldModel`` (:mod:`navbench.worldmodel.base`; the isometric view needs
-a voxel map, another kind gets a note); :func:`store_loaders` builds both from the stage cache.
+a voxel map, another kind gets a note); :func:`navbench.pipeline.loaders.store_loaders` builds
+both from the stage cache.
 
 Sections: run metadata; SPL by estimator and noise (Fig. 5a, with intervals, next to the paper's
 values); the full score table; location/orientation RMSE CDFs (Fig. 4a,b: from the tracking-study
@@ -30,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from navbench.nav.timing import TIMING_COLUMNS
-from navbench.pipeline.score import (
+from navbench.results.score import (
     ESTIMATOR_ORDER,
     NOISE_ORDER,
     _order_key,
@@ -48,7 +49,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     import pandas
 
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
 TrajectoryLoader = Callable[[str], dict]
 MapLoader = Callable[[str], Any]
@@ -159,7 +160,7 @@ def _runtime_table(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame") -
 
 def _cdf_groups(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame"):
     """(source text, {label: loc values}, {label: rot values}, styles) for Fig. 4a,b."""
-    from navbench.pipeline.plots import estimator_colour, noise_linestyle
+    from navbench.report.plots import estimator_colour, noise_linestyle
 
     if not tracking.empty:
         f = tracking.assign(variant=estimator_variants(tracking))
@@ -227,7 +228,7 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
 def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     import pandas as pd
 
-    from navbench.pipeline.plots import PAPER_SPL
+    from navbench.report.plots import PAPER_SPL
 
     page.h2("Navigation: SPL by estimator and noise (Fig. 5a)", "spl")
     if table is None or table.empty:
@@ -281,7 +282,7 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
 
 def _spl_panel(fig, table: "pandas.DataFrame", conditions: str | None) -> None:
     """Fig. 5a of one set of conditions (named in the title when the report has several)."""
-    from navbench.pipeline.plots import plot_spl
+    from navbench.report.plots import plot_spl
 
     ax = fig.add_subplot()
     plot_spl(ax, table, "all")
@@ -291,7 +292,7 @@ def _spl_panel(fig, table: "pandas.DataFrame", conditions: str | None) -> None:
 
 def conditions_sentence(found: list, short: bool = False) -> str:
     """What a report section says about the simulator conditions of its episodes (``found``:
-    :func:`~navbench.pipeline.score.conditions_in`; ``[None]`` when not known)."""
+    :func:`~navbench.results.score.conditions_in`; ``[None]`` when not known)."""
     found = [c for c in found if c is not None]
     if not found:
         return "Simulator conditions: not recorded with these episodes."
@@ -331,7 +332,7 @@ def _compact_scores(table: "pandas.DataFrame", several: bool = False) -> "pandas
 def _section_tracking(page: _Page, episodes, tracking, bench=None, runs=None) -> None:
     import pandas as pd
 
-    from navbench.pipeline.plots import plot_loc_cdf, plot_rot_cdf, plot_step_runtime
+    from navbench.report.plots import plot_loc_cdf, plot_rot_cdf, plot_step_runtime
 
     page.h2("Tracking accuracy (Fig. 4a, b)", "tracking")
     groups = _cdf_groups(episodes, tracking)
@@ -362,7 +363,7 @@ def _section_tracking(page: _Page, episodes, tracking, bench=None, runs=None) ->
     if rt.empty:
         page.note("No timings stored yet.")
         return
-    from navbench.pipeline.report_claim import section_speed_vs_paper, split_no_work
+    from navbench.report.claim import section_speed_vs_paper, split_no_work
 
     work, idle = split_no_work(rt)
     if not work.empty:
@@ -411,7 +412,7 @@ def _section_levels(page: _Page, db: "ResultsDB", episodes, levels_dir: Path,
             tasks = db.tasks_frame(level=name)
             if not tasks.empty:
                 tasks = tasks[tasks["task_set_key"] == tasks["task_set_key"].iloc[-1]]
-        from navbench.pipeline.report_claim import level_runs_figure
+        from navbench.report.claim import level_runs_figure
 
         level_runs_figure(page, name, level, tasks, eps, load_trajectory, load_map, per_level)
 
@@ -496,7 +497,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
     ``NAME.json`` level files for the top views. The navigation sections show every stored
-    episode, or those of ``run`` (as :func:`~navbench.pipeline.score.select_episodes`) and/or of
+    episode, or those of ``run`` (as :func:`~navbench.results.score.select_episodes`) and/or of
     the cells ``cell_keys`` (``navbench all`` passes its grid's cells). Success and SPL follow
     the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table.
     """
@@ -506,19 +507,19 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     out.mkdir(parents=True, exist_ok=True)
     page = _Page(out)
     runs = db.runs_frame()
-    from navbench.pipeline.score_presets import apply_preset
+    from navbench.results.presets import apply_preset
 
     episodes = apply_preset(select_episodes(db, run=run, cell_keys=cell_keys), preset)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 
-    from navbench.pipeline.report_claim import section_claim, section_failures
+    from navbench.report.claim import section_claim, section_failures
 
     _section_runs(page, runs)
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)
     section_failures(page, episodes)
-    from navbench.pipeline.report_goals import section_goals  # issue 15
+    from navbench.report.goals import section_goals  # issue 15
 
     section_goals(page, episodes, Path(levels_dir), db.tasks_frame(), load_trajectory, load_map)
     _section_tracking(page, episodes, tracking, db.bench_frame(), runs)
@@ -526,7 +527,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
                     load_map)
     _section_maps(page, db.maps_frame(), load_map)
     _section_bench(page, db.bench_frame())
-    from navbench.pipeline.report_localize import section_localization  # issue 14
+    from navbench.report.localize import section_localization  # issue 14
 
     section_localization(page, db, Path(levels_dir))
 
@@ -550,37 +551,3 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     from navbench.outpath import write_text_atomic
 
     return write_text_atomic(out / "index.html", doc)
-
-
-def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryLoader, MapLoader]:
-    """``(load_trajectory, load_map)`` reading verified artifacts of the stage cache: episode
-    records (``episode`` stage) and fitted maps (``fit-map`` stage)."""
-    from navbench.pipeline.cache import ArtifactStore
-
-    store = ArtifactStore(cache_root)
-
-    def load_trajectory(key: str) -> dict:
-        from navbench.pipeline.artifacts import TRAJ_FILE, load_record
-
-        from navbench.pipeline.report_topviews import online_extras
-
-        path = store.load("episode", key) / TRAJ_FILE
-        rec = load_record(path)
-        return {"true_poses": np.asarray(rec.true_poses), "est_poses": np.asarray(rec.est_poses),
-                "target": np.asarray(rec.target), "plan": np.asarray(rec.plan),
-                "end_reason": rec.end_reason, **online_extras(path)}  # online: known, seen_share
-
-    def load_map(key: str):
-        from navbench.errors import ArtifactError
-        from navbench.pipeline.artifacts import MAP_FILE
-        from navbench.worldmodel.base import load_world_model
-
-        for stage in ("fit-map", "true-map"):  # a fitted map, or the true geometry (--map true)
-            try:
-                return load_world_model(store.load(stage, key) / MAP_FILE)
-            except ArtifactError:
-                continue
-        raise ArtifactError(f"no fit-map or true-map artifact with key {key[:12]} in {store.root} "
-                            "(a map brought with --map FILE is not kept in the cache)")
-
-    return load_trajectory, load_map

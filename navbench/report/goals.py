@@ -33,7 +33,7 @@ def _online_goals(page: Any, rows) -> None:
 
 
 def difficulty_pivot(table) -> tuple["pandas.DataFrame", str]:
-    """:func:`~navbench.pipeline.score.difficulty_table` as one row per (level, estimator, noise,
+    """:func:`~navbench.results.score.difficulty_table` as one row per (level, estimator, noise,
     goal, setting) and one column per difficulty, each cell ``"SR [lo, hi] / SPL"``; ``setting``
     holds the conditions in which the rows differ (a map mode, an ablation), and the returned
     string the conditions they share (left out of every row; ``""`` when none is recorded).
@@ -71,10 +71,10 @@ def _under(shared: str) -> str:
 
 def split_conditions(labels) -> tuple[str, list[str]]:
     """Conditions labels (``score.conditions_label``) as the part every label shares (the
-    conditions at their defaults left out, as :func:`~navbench.pipeline.score.short_conditions`:
+    conditions at their defaults left out, as :func:`~navbench.results.score.short_conditions`:
     ``"defaults"`` when all are; ``""`` when nothing is shared or recorded) and each label's own
     rest (``"–"`` when none): a narrow ``setting`` column, the shared part said once."""
-    from navbench.pipeline.score import short_conditions
+    from navbench.results.score import short_conditions
 
     split = [short_conditions(c).split(", ") for c in labels]
     common = [p for p in split[0] if all(p in q for q in split)] if split else []
@@ -85,15 +85,15 @@ def split_conditions(labels) -> tuple[str, list[str]]:
 
 def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=None,
                   load_trajectory=None, load_map=None) -> None:
-    """Scores by difficulty and goal (:func:`navbench.pipeline.score.difficulty_table`)
+    """Scores by difficulty and goal (:func:`navbench.results.score.difficulty_table`)
     and, where image goals were run, the goal-localisation outcomes per level and the first
     goal images of each level (rendered again from the level file in ``levels_dir``, the task's
     target in ``tasks`` (the database's tasks frame) and the stored heading: byte for byte the
     image the agent was given, at the ``half`` camera). Online episodes (``--map online``) get
-    top views per level and conditions (:mod:`navbench.pipeline.report_topviews`: their
+    top views per level and conditions (:mod:`navbench.report.topviews`: their
     trajectories through ``load_trajectory``, the grid of their explored cells through
-    ``load_map``, as :func:`navbench.pipeline.report.build_report`'s)."""
-    from navbench.pipeline.score import difficulty_table
+    ``load_map``, as :func:`navbench.report.build.build_report`'s)."""
+    from navbench.results.score import difficulty_table
 
     page.h2("Goals and difficulty (scoring preset)", "goals")
     if episodes is None or episodes.empty:
@@ -131,7 +131,7 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
                    "to the true one", index=True, digits=3)
     if online.any():
         _online_goals(page, img[online])
-        from navbench.pipeline.report_topviews import section_online_topviews
+        from navbench.report.topviews import section_online_topviews
 
         section_online_topviews(page, img[online], levels_dir, load_trajectory, load_map)
     if levels_dir is None or tasks is None or tasks.empty or "goal_heading" not in img.columns:

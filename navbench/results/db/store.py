@@ -1,5 +1,5 @@
 """The :class:`ResultsDB` storage interface: opening (and creating) a database, and every
-write and query the stages and commands make. See :mod:`navbench.pipeline.db` for the tables
+write and query the stages and commands make. See :mod:`navbench.results.db` for the tables
 and the rules (no duplicate rows, the first stored value of a key stays)."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from sqlalchemy.engine import Connection, Engine, make_url
 from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
 
 from navbench.errors import DatabaseError
-from navbench.pipeline.db.rows import (
+from navbench.results.db.rows import (
     _apply_filters,
     _clean,
     _clean_json,
@@ -26,7 +26,7 @@ from navbench.pipeline.db.rows import (
     cpu_description,
     git_commit,
 )
-from navbench.pipeline.db.schema import (
+from navbench.results.db.schema import (
     _ADDED_COLUMNS,
     _BENCH_FIELDS,
     _BENCH_REQUIRED,
@@ -56,12 +56,12 @@ from navbench.pipeline.db.schema import (
     _add_missing_columns,
     resolve_db_url,
 )
-from navbench.pipeline.db.schema import (  # issue 13's table
+from navbench.results.db.schema import (  # issue 13's table
     _SEQUENCE_FIELDS,
     _SEQUENCE_REQUIRED,
     SequenceTrackingRow,
 )
-from navbench.pipeline.executor import pid_alive, process_start_token
+from navbench.proc import pid_alive, process_start_token
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
@@ -463,7 +463,7 @@ class ResultsDB:
 
     def add_sequence_rows(self, run_id: int, rows: list[dict]) -> int:
         """Insert ``track-sequence`` rows (the columns of
-        :class:`~navbench.pipeline.db.schema.SequenceTrackingRow`), ignoring a ``sequence_key``
+        :class:`~navbench.results.db.schema.SequenceTrackingRow`), ignoring a ``sequence_key``
         already stored; returns how many were new."""
         clean = self._normalise(rows, _SEQUENCE_FIELDS, _SEQUENCE_REQUIRED, "sequence_tracking",
                                 json_fields=("estimator_options",))
@@ -527,7 +527,7 @@ class ResultsDB:
         """All benchmark rows, oldest first."""
         return self._frame(select(BenchRow.__table__).order_by(BenchRow.id))
 
-    # -- run timings (the breakdown, navbench.pipeline.breakdown) ---------------------------
+    # -- run timings (the breakdown, navbench.results.breakdown) ---------------------------
 
     def add_run_timings(self, run_id: int, rows: list[dict]) -> int:
         """Store a run's breakdown rows (kind, name, seconds, count, cached), ignoring duplicates

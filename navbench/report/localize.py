@@ -34,7 +34,7 @@ def localization_table(rows: "Any") -> "Any":
 
 def section_localization(page: Any, db: Any, levels_dir: Path) -> None:
     """Append the section to ``page`` (a report ``_Page``); a note when no rows are stored."""
-    from navbench.pipeline.plots import draw_level_outline, plot_cdf
+    from navbench.report.plots import draw_level_outline, plot_cdf
 
     page.h2("Localisation (RNR-Map Table 1b, 2; Fig. 4)", "localization")
     rows = db.localize_frame()

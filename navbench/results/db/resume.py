@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from navbench.errors import DatabaseError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from navbench.pipeline.db.store import ResultsDB
+    from navbench.results.db.store import ResultsDB
 
 #: Config fields that say how a run executes, not what it measures.
 EXECUTION_FIELDS = ("workers",)
