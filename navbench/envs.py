@@ -19,7 +19,10 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-ENV_ID = "navbench/PointNav-v0"
+from navbench.benchmark import BENCHMARK_VERSION, GYM_IDS  # noqa: E402
+
+#: The id follows the benchmark version (its suffix changes when the images do).
+ENV_ID = GYM_IDS[BENCHMARK_VERSION]
 
 
 def make_pointnav(level, **kwargs):

@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from navbench.pipeline.profiles import DEFAULT_PROFILE, available_profiles, bundled_field_values
 
-__all__ = ["DB_HELP", "DB_URL", "DEFAULT_PROFILE", "bundled_profiles", "default", "profile_default",
+__all__ = ["DB_HELP", "DB_URL", "VERSION_HELP", "DEFAULT_PROFILE", "bundled_profiles", "default", "profile_default",
            "profile_help", "profile_values"]
 
 
@@ -84,3 +84,5 @@ _DB_FILE = DB_URL.removeprefix("sqlite:///")
 #: Names the SQLite file rather than the whole URL: a word wider than the help column is cut
 #: short with an ellipsis at 80 columns.
 DB_HELP = f"Results database URL {default(f'$NAVBENCH_DB, else the SQLite file {_DB_FILE}')}."
+VERSION_HELP = ("Benchmark version to read (results of two versions are never pooled) "
+                + default("the newest version in the selection") + ".")

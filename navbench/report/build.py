@@ -38,7 +38,6 @@ from navbench.results.score import (
     conditions_in,
     estimator_variants,
     mixed_setups_warning,
-    select_episodes,
     short_conditions,
     spl_matrix,
     summarise,
@@ -492,14 +491,16 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
                  load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
                  n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3,
                  run: int | str | None = None, cell_keys: "Collection[str] | None" = None,
-                 preset: str = "paper") -> Path:
+                 preset: str = "paper", benchmark_version: str | None = None) -> Path:
     """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
     ``NAME.json`` level files for the top views. The navigation sections show every stored
     episode, or those of ``run`` (as :func:`~navbench.results.score.select_episodes`) and/or of
     the cells ``cell_keys`` (``navbench all`` passes its grid's cells). Success and SPL follow
-    the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table.
+    the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table, and
+    one benchmark version: ``benchmark_version``, else the newest of the selection (named at the
+    top of the report, with the versions left out).
     """
     from navbench import __version__
 
@@ -509,12 +510,19 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     runs = db.runs_frame()
     from navbench.results.presets import apply_preset
 
-    episodes = apply_preset(select_episodes(db, run=run, cell_keys=cell_keys), preset)
+    from navbench.results.score import select_versioned
+
+    selected, version, version_note = select_versioned(db, run=run, cell_keys=cell_keys,
+                                                       benchmark_version=benchmark_version)
+    episodes = apply_preset(selected, preset)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
     tracking = db.tracking_frame()
 
     from navbench.report.claim import section_claim, section_failures
 
+    if version is not None:
+        page.p(f"Benchmark version {version}: every navigation score below is of this version only."
+               + (f" {version_note}" if version_note else ""), "meta")
     _section_runs(page, runs)
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)

@@ -137,17 +137,29 @@ def estimator_variants(frame: "pandas.DataFrame") -> "pandas.Series":
 
 def select_episodes(db: "ResultsDB", run: int | str | None = None,
                     level: str | list[str] | None = None,
-                    cell_keys: "list[str] | set[str] | None" = None) -> "pandas.DataFrame":
+                    cell_keys: "list[str] | set[str] | None" = None,
+                    benchmark_version: str | None = None) -> "pandas.DataFrame":
     """The episodes that count (see the module docstring), optionally of one run, level(s) and
     cells (``cell_keys``: a run's grid); the selection comes before the once-per-(setup, task,
-    seed) rule, so a run's own cells keep all their episodes."""
+    seed) rule, so a run's own cells keep all their episodes. One benchmark version only: the
+    newest present or ``benchmark_version`` (:func:`select_versioned` also says which)."""
+    return select_versioned(db, run, level, cell_keys, benchmark_version)[0]
+
+
+def select_versioned(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,
+                     cell_keys: "list[str] | set[str] | None" = None, benchmark_version: str | None = None
+                     ) -> tuple["pandas.DataFrame", str | None, str | None]:
+    """:func:`select_episodes` with the benchmark version it kept and a note naming the versions
+    it left out (:func:`navbench.results.versions.choose_version`)."""
     from navbench.results.db.resume import resolve_run_ids
+    from navbench.results.versions import choose_version
 
     run_ids = resolve_run_ids(db, run)
     levels = [level] if isinstance(level, str) else level
     frame = db.episodes_frame(run_ids=run_ids, level=levels or None)
     if cell_keys is not None and not frame.empty:
         frame = frame[frame["cell_key"].isin(set(cell_keys))]
+    frame, version, note = choose_version(frame, benchmark_version)
     if not frame.empty:
         frame = (frame.sort_values("id")
                  .drop_duplicates(["cell_key", "task_id", "seed"], keep="last")
@@ -156,7 +168,7 @@ def select_episodes(db: "ResultsDB", run: int | str | None = None,
         frame = (frame.drop_duplicates(["setup", "task_uid", "seed"], keep="first")
                  .reset_index(drop=True))
         frame = with_conditions(frame, db.runs_frame())
-    return frame
+    return frame, version, note
 
 
 #: The ``conditions`` label of episodes whose run recorded no episode config.
@@ -350,30 +362,31 @@ def mixed_setups_warning(table: "pandas.DataFrame") -> str | None:
 
 
 def score_table(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,
-                n_boot: int = N_BOOT, seed: int = 0, preset: str = "paper") -> "pandas.DataFrame":
+                n_boot: int = N_BOOT, seed: int = 0, preset: str = "paper",
+                benchmark_version: str | None = None) -> "pandas.DataFrame":
     """Score the stored episodes: :func:`select_episodes` then :func:`summarise` under the
     scoring ``preset``. Raises :class:`DatabaseError` when no episode matches.
     """
     from navbench.results.presets import apply_preset
 
-    return summarise(apply_preset(_selected(db, run, level), preset), n_boot=n_boot, seed=seed)
+    return summarise(apply_preset(_selected(db, run, level, benchmark_version), preset), n_boot=n_boot, seed=seed)
 
 
 def score_tables(db: "ResultsDB", run: int | str | None = None, level: str | list[str] | None = None,
-                 n_boot: int = N_BOOT, seed: int = 0,
-                 preset: str = "paper") -> tuple["pandas.DataFrame", "pandas.DataFrame"]:
+                 n_boot: int = N_BOOT, seed: int = 0, preset: str = "paper",
+                 benchmark_version: str | None = None) -> tuple["pandas.DataFrame", "pandas.DataFrame"]:
     """``(score table, paired differences)`` of the stored episodes: :func:`score_table` and
     :func:`paired_differences` of the same selection, both under the scoring ``preset``.
     Raises :class:`DatabaseError` when no episode matches."""
     from navbench.results.presets import apply_preset
 
-    frame = apply_preset(_selected(db, run, level), preset)
+    frame = apply_preset(_selected(db, run, level, benchmark_version), preset)
     return (summarise(frame, n_boot=n_boot, seed=seed),
             paired_differences(frame, n_boot=n_boot, seed=seed))
 
 
-def _selected(db: "ResultsDB", run, level) -> "pandas.DataFrame":
-    frame = select_episodes(db, run=run, level=level)
+def _selected(db: "ResultsDB", run, level, benchmark_version: str | None = None) -> "pandas.DataFrame":
+    frame = select_episodes(db, run=run, level=level, benchmark_version=benchmark_version)
     if frame.empty:
         what = [f"run {run}" if run not in (None, "all") else "", f"level {level}" if level else ""]
         detail = " for " + " and ".join(w for w in what if w) if any(what) else ""

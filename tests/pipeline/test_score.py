@@ -173,7 +173,8 @@ def test_cli_json_csv_table(db, tmp_path):
     res = runner.invoke(app, ["score", "--format", "json", "--db", url, "--boot", "100"])
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
-    assert set(doc) == {"scores", "paired_differences"}
+    assert set(doc) == {"benchmark_version", "scores", "paired_differences"}
+    assert doc["benchmark_version"] == "navbench-1"
     data = doc["scores"]
     assert isinstance(data, list) and len(data) == 7
     # ours and dynamics share l1 / low / task 0 / seed 0 (the helper's rows have no condition

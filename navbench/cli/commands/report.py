@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import DB_HELP
+from navbench.cli._help import DB_HELP, VERSION_HELP
 from navbench.cli.commands.score import MAX_BOOT
 
 
@@ -23,6 +23,7 @@ def report(
     preset: str = typer.Option(None, "--preset", help="Scoring preset: paper, nrns or habitat "
                                "(navbench score --help). Default: paper; nrns when every selected "
                                "episode is an unknown-house one.", show_default=False),
+    benchmark_version: str = typer.Option(None, "--benchmark-version", help=VERSION_HELP, show_default=False),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
@@ -60,7 +61,8 @@ def report(
             from navbench.results.score import select_episodes
             from navbench.results.presets import default_preset
 
-            preset, mixed = default_preset(select_episodes(rdb, run=selection))
+            preset, mixed = default_preset(select_episodes(rdb, run=selection,
+                                                           benchmark_version=benchmark_version))
             if mixed:
                 err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
         with writing(dest, "--out", "the report"):
@@ -70,7 +72,7 @@ def report(
             with writing(dest, "--out", "the report"):  # a write that still fails: one line
                 build_report(rdb, build, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
-                             run=selection, preset=preset)
+                             run=selection, preset=preset, benchmark_version=benchmark_version)
             publish(build, dest, protected, option="--out")
         finally:
             shutil.rmtree(build, ignore_errors=True)

@@ -7,7 +7,7 @@ from enum import Enum
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP
+from navbench.cli._help import DB_HELP, VERSION_HELP
 
 #: bootstrap resamples allocate resamples x episodes numbers; 100 000 is 50x the default
 MAX_BOOT = 100_000
@@ -44,6 +44,7 @@ def score(
                                        "and final distance by NRNS difficulty and goal."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                            help=DB_HELP),
+    benchmark_version: str = typer.Option(None, "--benchmark-version", help=VERSION_HELP, show_default=False),
 ):
     """Score the stored navigation episodes offline, with 95% intervals.
 
@@ -53,7 +54,8 @@ def score(
     stored episode counts once per setup, task and seed; --run narrows to one run. --format json
     prints {"scores": [...], "paired_differences": [...]} (and "by_difficulty" with
     --by-difficulty); csv prints the score table; markdown prints the pooled SPL and success
-    tables beside the paper's (the README's results table). Every table names its --preset.
+    tables beside the paper's (the README's results table). Every table names its --preset and
+    the benchmark version it scores (one only: results of two versions are never pooled).
     """
     import sys
 
@@ -64,19 +66,22 @@ def score(
     from navbench.cli._common import err_console
     from navbench.nav.presets import get_preset
     from navbench.results.score import (conditions_in, difficulty_table, mixed_setups_warning, score_tables,
-                                         select_episodes, short_conditions, table_records)
+                                         select_versioned, short_conditions, table_records)
     from navbench.results.presets import apply_preset, default_preset, missing_distances
 
     if preset is not None:
         get_preset(preset, "--preset")  # before opening the database
     with ResultsDB(db, create=False) as rdb:
         selection, chain = resolve_selection(rdb, run)
-        frame = select_episodes(rdb, run=selection, level=parse_list(level) or None)
+        frame, version, version_note = select_versioned(rdb, run=selection, level=parse_list(level) or None,
+                                                        benchmark_version=benchmark_version)
         preset, mixed = (preset, None) if preset is not None else default_preset(frame)
         table, paired = score_tables(rdb, run=selection, level=parse_list(level) or None, n_boot=boot,
-                                     seed=seed, preset=preset)
+                                     seed=seed, preset=preset, benchmark_version=version)
     if chain:
         err_console.print(escape(chain), markup=True)
+    if version_note:
+        err_console.print(f"[yellow]note:[/] {escape(version_note)}", markup=True)
     if mixed:
         err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
     warning = mixed_setups_warning(table)
@@ -91,7 +96,8 @@ def score(
     if fmt is Format.json:
         from navbench.cli._common import print_json
 
-        doc = {"scores": table_records(table), "paired_differences": table_records(paired)}
+        doc = {"benchmark_version": version, "scores": table_records(table),
+               "paired_differences": table_records(paired)}
         if by_diff is not None:
             doc["by_difficulty"] = table_records(by_diff)
         print_json(doc)
@@ -107,7 +113,7 @@ def score(
     from rich.table import Table
 
     # level, estimator and noise names come from the database: printed literally, never as markup
-    out = Table(title=f"navbench score ({escape(run)}), preset {escape(preset)}: mean or median [95% "
+    out = Table(title=f"navbench score ({escape(run)}), {escape(str(version))}, preset {escape(preset)}: mean or median [95% "
                       "interval: success exact binomial, SPL bootstrap stratified by level, medians bootstrap]",
                 caption=escape(conditions_caption(table)))
     goals = bool((table["goal"] != "point").any())  # a goal column only where image goals are stored

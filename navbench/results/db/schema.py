@@ -67,6 +67,9 @@ class Run(Base):
     # added within schema version 1 (nullable, see _ADDED_COLUMNS): the process running it
     pid: Mapped[int | None] = mapped_column(Integer, nullable=True)
     proc_start: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    # added within schema version 1: the benchmark version the run produced results under
+    # (navbench.benchmark; NULL in runs stored before: navbench-1)
+    benchmark_version: Mapped[str | None] = mapped_column(String(32), nullable=True)
 
 
 #: Nullable columns added to a version-1 layout after it shipped: (table, column).
@@ -80,7 +83,9 @@ _ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"),
                   # issue 14: raw odometry and the kidnapped-robot test of a tracking row
                   ("tracking", "raw_odom_ate_m"), ("tracking", "kidnaps"),
                   ("tracking", "kidnaps_detected"), ("tracking", "kidnaps_recovered"),
-                  ("tracking", "alarms"), ("tracking", "false_alarms"))
+                  ("tracking", "alarms"), ("tracking", "false_alarms"),
+                  # benchmark versions (navbench.benchmark): NULL is navbench-1
+                  ("runs", "benchmark_version"), ("episodes", "benchmark_version"))
 #: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
 _PG_SCHEMA_LOCK = 0x6E617662656E6368
 
@@ -183,6 +188,9 @@ class EpisodeRow(Base):
     goal_err_m: Mapped[float | None] = mapped_column(Float, nullable=True)
     goal_confidence: Mapped[float | None] = mapped_column(Float, nullable=True)
     goal_heading: Mapped[float | None] = mapped_column(Float, nullable=True)  # rad, of the goal image
+    # added within schema version 1: the benchmark version of the episode (its run's;
+    # navbench.benchmark). NULL in rows stored before: navbench-1. Never pooled across versions.
+    benchmark_version: Mapped[str | None] = mapped_column(String(32), nullable=True)
 
 
 class TrackingRow(Base):

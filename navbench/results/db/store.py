@@ -250,9 +250,12 @@ class ResultsDB:
 
     # -- runs -----------------------------------------------------------------------------
 
-    def start_run(self, profile: str, command: str, config: dict, config_hash: str) -> int:
-        """Record the start of a run (status ``running``) by this process; returns its id."""
+    def start_run(self, profile: str, command: str, config: dict, config_hash: str,
+                  benchmark_version: str | None = None) -> int:
+        """Record the start of a run (status ``running``) by this process under
+        ``benchmark_version`` (default: :data:`navbench.benchmark.BENCHMARK_VERSION`); returns its id."""
         from navbench import __version__
+        from navbench.benchmark import BENCHMARK_VERSION
 
         pid = os.getpid()
         row = dict(
@@ -260,6 +263,7 @@ class ResultsDB:
             navbench_version=__version__, git_commit=git_commit(), host=socket.gethostname(),
             cpu=cpu_description(), started=_utcnow(), finished=None, status="running",
             pid=pid, proc_start=process_start_token(pid),
+            benchmark_version=benchmark_version or BENCHMARK_VERSION,
         )
         with self._begin() as conn:
             result = conn.execute(Run.__table__.insert().values(row))
@@ -306,6 +310,15 @@ class ResultsDB:
             except DatabaseError:
                 return []
         return dead
+
+    def run_version(self, run_id: int) -> str:
+        """The benchmark version run ``run_id`` recorded (``navbench-1`` for a run stored before
+        versions existed, or an unknown id)."""
+        from navbench.benchmark import LEGACY_VERSION
+
+        with self._begin() as conn:
+            v = conn.execute(select(Run.benchmark_version).where(Run.id == int(run_id))).scalar()
+        return v or LEGACY_VERSION
 
     def latest_run_id(self, command: str | None = None) -> int | None:
         """Id of the most recently started run (optionally of one ``command``), else None."""
@@ -419,9 +432,11 @@ class ResultsDB:
         clean = self._normalise(rows, _EPISODE_FIELDS, _EPISODE_REQUIRED, "episode",
                                 json_fields=("estimator_options",))
         now = _utcnow()
+        version = self.run_version(run_id)
         for r in clean:
             r["run_id"] = int(run_id)
             r["recorded"] = now
+            r["benchmark_version"] = version
             r["success"] = bool(r["success"])
             if r["collided"] is not None:
                 r["collided"] = bool(r["collided"])
