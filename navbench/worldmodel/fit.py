@@ -17,7 +17,7 @@ batch reaches it), which costs O(batch) instead of O(grid) per step — a dense 
 ``optimizer="adam"`` is the paper's dense Adam (``torch.optim.Adam(fused=True)``).
 
 Devices (``FitConfig.device``, default ``"auto"``: the CPU path on every machine, measured faster
-than the device path even on an H100 (README, "A GPU"), and one map per cache key everywhere):
+than the device path even on an H100 (docs/notebook/gpu.md), and one map per cache key everywhere):
 
 ``"cpu"``
     the path above: numpy grids, numba crossing search and row updates, autograd on the
