@@ -13,7 +13,7 @@ setup: $(STAMP)
 
 # Reinstalls only when pyproject.toml or constraints.txt changes. constraints.txt pins exactly
 # torch==2.13.0, which resolves to the CPU wheel on this machine; GPU users install their own
-# torch build into the venv first (see README).
+# torch build into the venv first (see docs/getting-started.md).
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip

@@ -450,7 +450,7 @@ TABLE: tuple[Measurement, ...] = (
                        "tracking walk, 200 x 200 x 20 grid of the level; issue 15 target <= 10 ms "
                        "at the half camera") for cam in CAMERA_NAMES),
     # issue #17, part 2: the same steps with ours' option reference_scale = 0.5 (the reference
-    # rendered at 160 x 120; not the default: it changes results, README "Issue 17, part 2")
+    # rendered at 160 x 120; not the default: it changes results, docs/notebook/speed.md)
     *(Measurement(f"{what}_ms_paper_ref05", "control", f"{label} (ours, reference_scale 0.5), paper",
                   lambda ctx, n, ex=ex: timers.time_control_step(
                       ctx.level, ctx.vmap, CAMERAS["paper"], n, seed=ctx.seed, budget_s=ctx.budget,
@@ -459,7 +459,7 @@ TABLE: tuple[Measurement, ...] = (
                   progress=f"{label} (paper, reference_scale 0.5)",
                   note="as the row without _ref05, ours with reference_scale = 0.5")
       for what, label, ex in (("agent_step", "agent step", ("sim",)), ("control_step", "control step", ()))),
-    # the paper profile's setting of ours (reference_scale = 0.5, README "make paper in an hour?")
+    # the paper profile's setting of ours (reference_scale = 0.5, docs/notebook/speed.md)
     Measurement("e2e_episodes_per_min_paper_ref05", "end to end",
                 "episodes per minute, paper camera, ours reference_scale 0.5",
                 _e2e("episodes", "paper", "e2e_paper_ref05", ", ours reference_scale 0.5"), unit="episodes/min",

@@ -102,7 +102,7 @@ def level_stats(level: Level, resolution: float = VALIDATION_RESOLUTION) -> dict
 
 def validate_connectivity(level: Level, resolution: float = VALIDATION_RESOLUTION,
                           clearance: float = CLEARANCE) -> None:
-    """Alias of :func:`validate_level` (the name in docs/ARCHITECTURE.md)."""
+    """Alias of :func:`validate_level` (the name in docs/concepts/architecture.md)."""
     validate_level(level, resolution, clearance)
 
 

@@ -62,7 +62,7 @@ shift brings the right place among the 24 first candidates for 84-92 % of OC1 qu
 alone: 72 %), 76-84 % of OC3 (52 %), and changes nothing on unchanged rooms (100 %; 25-40
 queries each, tune-house).
 
-Changed rooms and speed (issue 14 follow-up; ``scripts/localize_diagnose.py`` on ``tune-house``
+Changed rooms and speed (issue 14 follow-up; ``docs/data/localisation/localize_diagnose.py`` on ``tune-house``
 only): of the OC4 failures on its true map, 12 of 22 were the wrong place out-scoring the true
 pose and 6 a refinement pulled off the true pose by the changed furniture. Most changed pixels
 at the true pose were *beyond* the map's surface (removed or moved furniture), so both depth
@@ -207,7 +207,7 @@ class Localizer:
     ``signature``, ``correlate``, ``refine``, ``total`` (wall clock) and ``cpu`` (the process's
     CPU time for the whole query: the wall time it would take on an idle core);
     ``last_candidates`` and ``last_refined``: its coarse candidate poses and their refined
-    hypotheses, in coarse order (what ``scripts/localize_diagnose.py`` reads)."""
+    hypotheses, in coarse order (what ``docs/data/localisation/localize_diagnose.py`` reads)."""
 
     def __init__(self, world_model, intrinsics: Intrinsics, camera_height: float,
                  config: LocalizerConfig, bank: Bank):

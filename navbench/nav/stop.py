@@ -27,7 +27,7 @@ fools a stopper that trusts the first match:
    that new observations contradict (the look-alike room seen from its doorway) never stops.
 
 Thresholds were set a priori (90 % of the goal view explained, the localiser's own 5 cm / 3 %
-depth and 0.1 colour inlier tests), not tuned on any level reported. ``scripts/stop_calibrate.py``
+depth and 0.1 colour inlier tests), not tuned on any level reported. ``docs/data/image-goals/stop_calibrate.py``
 checks them on ``tune-house`` (seed 1234): on its voxelised true map, 39 of 40 random views were
 matched to the right place with confidence 0.945-0.999, and the one wrong best place reached
 0.909. So a wrong place can pass test 1 alone; tests 2 and 3 are there for that.

@@ -24,7 +24,7 @@ Projections that leave the reference image are not evidence either; with fewer t
 
 The tracker raises an alarm when the fraction falls below ``health_min_inliers``
 (:class:`navbench.track.eq7.TrackerConfig`): the fixed 0.5 was calibrated on normal tracking of
-``house-1`` only (see README, "Localisation and the kidnapped robot"); ``"auto"`` sets it per map
+``house-1`` only (see docs/notebook/tracking.md); ``"auto"`` sets it per map
 from the map's own views (:class:`HealthCalibration`, :func:`view_inlier_fractions`,
 :func:`calibrated_threshold`; the cached stage: :mod:`navbench.pipeline.stages.health`).
 Math layer: arrays in, arrays out.
@@ -95,7 +95,7 @@ class HealthCalibration:
     ``clamp``: a share of the low tail rather than the tail minus a constant, so that a map whose
     agreement is low everywhere gets a proportionally lower threshold, while a lost track (near
     0 on any map) still falls below it. ``factor`` and ``quantile`` were chosen on house-1's two
-    fitted maps only (README, "health threshold per map").
+    fitted maps only (docs/notebook/tracking.md, "A threshold per map").
     """
 
     views: int = 200  # views scored (a seeded subset when the map has more)

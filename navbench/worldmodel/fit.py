@@ -17,7 +17,7 @@ batch reaches it), which costs O(batch) instead of O(grid) per step — a dense 
 ``optimizer="adam"`` is the paper's dense Adam (``torch.optim.Adam(fused=True)``).
 
 Devices (``FitConfig.device``, default ``"auto"``: the CPU path on every machine, measured faster
-than the device path even on an H100 (README, "A GPU"), and one map per cache key everywhere):
+than the device path even on an H100 (docs/notebook/gpu.md), and one map per cache key everywhere):
 
 ``"cpu"``
     the path above: numpy grids, numba crossing search and row updates, autograd on the
@@ -50,7 +50,7 @@ no gradient. Two documented additions, both named :class:`FitConfig` options:
     carves the free space every observed ray passes through, so surfaces appear where eq. 1 can
     then refine them. ``free_space_weight = 0`` is the paper's pure objective.
 
-``scripts/fit_quality.py`` measures the variants on a level (held-out views, slice scores).
+``docs/data/choices/fit_quality.py`` measures the variants on a level (held-out views, slice scores).
 Measured with it (5000 ``half`` views, seed 1; 200 held-out views, seed 2; 10 000 steps; depth
 MAE m / RGB L1 / slice precision / recall / fit seconds on the shared 2-core machine):
 

@@ -16,7 +16,7 @@ A directory written with ``save_views(..., compress=True)`` (what collect-views 
 instead of ``depth.npy`` and ``valid.npy``; they are read into memory, ``rgb`` stays
 memory-mapped. The arrays read back are bit-identical (so are fits and content hashes): the
 z-depth of walls and floors repeats along image columns and rows, so depth compresses ~37x,
-and 2000 ``half`` views take ~119 MB instead of 307 MB (README, "Issue 17, part 2").
+and 2000 ``half`` views take ~119 MB instead of 307 MB (docs/notebook/speed.md).
 
 """
 

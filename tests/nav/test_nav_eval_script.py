@@ -1,4 +1,4 @@
-"""Smoke test of scripts/nav_eval.py on the committed house-1 level and task set."""
+"""Smoke test of docs/data/claim/nav_eval.py on the committed house-1 level and task set."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_nav_eval_prints_success_and_spl(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
-    mod = load_script("nav_eval")
+    mod = load_script("docs/data/claim/nav_eval.py")
     mod.main(["house-1", "--estimators", "gt", "--noise", "none", "--tasks", "3"])
     out = capsys.readouterr().out
     assert "TRUE occupancy raster" in out and "3 tasks (task file)" in out

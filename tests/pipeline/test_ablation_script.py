@@ -1,4 +1,4 @@
-"""scripts/ablation.py's intervals and settings (the grid itself runs through run_profile,
+"""docs/data/ablation/ablation.py's intervals and settings (the grid itself runs through run_profile,
 tested elsewhere)."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def ablation():
-    return load_script("ablation")
+    return load_script("docs/data/ablation/ablation.py")
 
 
 def test_clopper_pearson_edges(ablation):

@@ -1,4 +1,4 @@
-"""scripts/level_sets_compare.py: the unpaired comparison of two level sets (issue 16)."""
+"""docs/data/level-sets/level_sets_compare.py: the unpaired comparison of two level sets (issue 16)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def compare():
-    return load_script("level_sets_compare")
+    return load_script("docs/data/level-sets/level_sets_compare.py")
 
 
 def test_resampling_is_stratified_by_level(compare):
@@ -51,13 +51,13 @@ def test_prints_both_sets_and_their_difference(tmp_path):
     b = [(4, "dense-x", 0, 0, "low", "no-map", 0.5, 1), (4, "dense-x", 1, 0, "low", "no-map", 0.5, 1)]
     _db(tmp_path / "a.db", a)
     _db(tmp_path / "b.db", b)
-    out = subprocess.run([sys.executable, str(ROOT / "scripts" / "level_sets_compare.py"), "--a-db",
+    out = subprocess.run([sys.executable, str(ROOT / "docs" / "data" / "level-sets" / "level_sets_compare.py"), "--a-db",
                           str(tmp_path / "a.db"), "--a-runs", "1", "--b-db", str(tmp_path / "b.db"),
                           "--b-runs", "4", "--tasks", "2"], capture_output=True, text=True, check=True).stdout
     row = [ln for ln in out.splitlines() if ln.startswith("| no-map | low")][0]
     assert "| 2 / 2 | 0.800 | 0.500 | -0.300 [-0.300, -0.300] | 1.000 | 1.000 |" in row
     assert "| dense-x | 0.500 |" in out and "| house-x | 0.800 |" in out
-    missing = subprocess.run([sys.executable, str(ROOT / "scripts" / "level_sets_compare.py"), "--a-db",
+    missing = subprocess.run([sys.executable, str(ROOT / "docs" / "data" / "level-sets" / "level_sets_compare.py"), "--a-db",
                               str(tmp_path / "none.db"), "--a-runs", "1", "--b-runs", "4"],
                              capture_output=True, text=True)
     assert missing.returncode != 0 and "no such database file" in missing.stderr

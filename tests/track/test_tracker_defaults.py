@@ -4,7 +4,7 @@ the results stored under an old key. This test holds the defaults the stored stu
 a default may change only with its old value in
 :data:`~navbench.track.trackconfig.CHANGED_DEFAULTS` (which puts the new value into the keys,
 :func:`~navbench.track.trackconfig.keyed_options`), and a new field must be added here, with a
-default that leaves the tracker computing what it did (README, "How the pipeline caches")."""
+default that leaves the tracker computing what it did (docs/concepts/stages-and-cache.md)."""
 
 from __future__ import annotations
 

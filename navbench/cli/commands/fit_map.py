@@ -33,7 +33,7 @@ def register(app: typer.Typer) -> None:
         camera: str = typer.Option(None, "--camera", help=f"half or paper, for LEVEL's collected views {profile_default('camera')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         device: str = typer.Option(None, "--device", help="Where the fit runs: auto (= cpu, the numba path: "
-                                   "faster than cuda even on an H100, README 'A GPU'), cpu, cuda[:N] (the "
+                                   "faster than cuda even on an H100, docs/notebook/gpu.md), cpu, cuda[:N] (the "
                                    "GPU path), or torch-cpu (the GPU path's code on the CPU, slow) "
                                    f"{profile_default('fit', fit_key='device', otherwise='auto')}."),
         fx: float = _tum.FX, fy: float = _tum.FY, cx: float = _tum.CX, cy: float = _tum.CY,
