@@ -188,14 +188,17 @@ class ArtifactStore:
     # ------------------------------------------------------------------ writing
     def write(self, stage: str, key: str, compute: Callable[[Path], None], *, config: Any,
               inputs: dict[str, str], version: int, log: Log = _noop,
-              replace: bool = False) -> Path:
+              replace: bool = False, validate: Callable[[Path], None] | None = None) -> Path:
         """Run ``compute(tmpdir)`` and atomically install its files as artifact ``key``.
 
         ``compute`` writes plain files (subdirectories allowed) into ``tmpdir``; the manifest is
         added here. A valid artifact with this key that appeared meanwhile (another process
         computing the same stage) is kept and ours dropped, so a concurrent reader of it never
         sees it vanish; it is replaced only with ``replace`` (``--force``). An invalid one is
-        always replaced.
+        always replaced. Nothing that fails to load is installed: an ``.npy`` / ``.npz`` file
+        holding an array of Python objects (which navbench never unpickles) is one
+        :class:`ArtifactError`, and so is whatever ``validate(tmpdir)`` (the stage's own loader)
+        raises.
         """
         final = self.path(stage, key)
         ensure_root(self.root)
@@ -205,6 +208,15 @@ class ArtifactStore:
         tmp.mkdir()
         try:
             compute(tmp)
+            _refuse_object_arrays(tmp, stage)
+            if validate is not None:
+                try:
+                    validate(tmp)
+                except ArtifactError:
+                    raise
+                except Exception as e:  # noqa: BLE001 - a stage's loader: what it says, one line
+                    raise ArtifactError(f"{stage}: the artifact just computed does not load back "
+                                        f"({type(e).__name__}: {e}); nothing was cached") from None
             files = {}
             for p in sorted(tmp.rglob("*")):
                 if p.is_file() and p.name != MANIFEST:
@@ -474,9 +486,43 @@ def _writer_alive(name: str) -> bool:
     return True
 
 
+def _refuse_object_arrays(d: Path, stage: str) -> None:
+    """:class:`ArtifactError` when an ``.npy`` or ``.npz`` file under ``d`` holds an array of Python
+    objects (it could only be read back by unpickling, which navbench never does). Reads the
+    array headers only."""
+    import zipfile
+
+    from numpy.lib import format as npformat
+
+    def has_objects(f) -> bool:
+        major, _minor = npformat.read_magic(f)
+        read = npformat.read_array_header_1_0 if major == 1 else npformat.read_array_header_2_0
+        return bool(read(f)[2].hasobject)
+
+    for p in sorted(d.rglob("*")):
+        bad = None
+        try:
+            if p.suffix == ".npy" and p.is_file():
+                with open(p, "rb") as f:
+                    bad = p.name if has_objects(f) else None
+            elif p.suffix == ".npz" and p.is_file():
+                with zipfile.ZipFile(p) as z:
+                    for name in z.namelist():
+                        with z.open(name) as f:
+                            if name.endswith(".npy") and has_objects(f):
+                                bad = f"{p.name}:{name[:-4]}"
+                                break
+        except (OSError, ValueError, zipfile.BadZipFile) as e:
+            raise ArtifactError(f"{stage}: the artifact just computed has an unreadable "
+                                f"{p.relative_to(d)} ({e}); nothing was cached") from None
+        if bad:
+            raise ArtifactError(f"{stage}: the artifact just computed holds an array of Python "
+                                f"objects ({bad}), which navbench cannot load; nothing was cached")
+
+
 def run_stage(store: ArtifactStore, stage: str, config: Any, inputs: dict[str, str], version: int,
               compute: Callable[[Path], None], force: bool = False,
-              log: Log = _noop) -> tuple[Path, str, bool]:
+              log: Log = _noop, validate: Callable[[Path], None] | None = None) -> tuple[Path, str, bool]:
     """Return ``(artifact dir, key, cached)``, running ``compute(tmpdir)`` only on a miss.
 
     The key (:func:`stage_key`) is computed first; a verified artifact with that key is reused
@@ -491,5 +537,5 @@ def run_stage(store: ArtifactStore, stage: str, config: Any, inputs: dict[str, s
             return hit, key, True
     log(f"{stage}: computing {key[:12]}")
     path = store.write(stage, key, compute, config=config, inputs=inputs, version=version, log=log,
-                       replace=force)
+                       replace=force, validate=validate)
     return path, key, False
