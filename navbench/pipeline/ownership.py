@@ -148,7 +148,15 @@ class _Holder:
 
 
 _HOLDERS: dict[tuple[str, int], _Holder] = {}
+_HOLDERS_EXIT: list = []  # the atexit hook is registered once
 _LOCK = threading.Lock()
+
+
+def _release_all() -> None:
+    """At exit: this process's holder files go (a killed process's are stale for gc to remove)."""
+    for (root, pid) in list(_HOLDERS):
+        if pid == os.getpid():
+            release(Path(root))
 
 
 def _me() -> tuple[int, str | None]:
@@ -181,6 +189,11 @@ def hold(root: Path, stage: str, key: str) -> None:
                 with open(path, "w") as f:
                     f.write(json.dumps({"pid": pid, "start": token, "host": socket.gethostname()}) + "\n")
                 h = _HOLDERS[ident] = _Holder(path, set())
+                if not _HOLDERS_EXIT:
+                    import atexit
+
+                    atexit.register(_release_all)
+                    _HOLDERS_EXIT.append(True)
             with open(h.path, "a") as f:
                 f.write(f"{stage}/{key}\n")
             h.seen.add((stage, key))
