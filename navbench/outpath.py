@@ -5,7 +5,10 @@ loads, fits, tracks or samples anything), so that a folder given for a file, a f
 folder, a parent that is a file, a location nobody may write to, or a suffix the writer does
 not support is one :class:`~navbench.errors.ConfigError` naming the option and the path, not a
 traceback after minutes of work. :func:`writing` turns an ``OSError`` that still happens while
-writing (disk full, a race) into the same kind of one-line error.
+writing (disk full, a race) into the same kind of one-line error. A command that never
+overwrites writes through :func:`exclusive_output`: into a temporary path beside the output,
+published by :func:`publish` in one step that fails if the output appeared meanwhile, so of two
+processes writing one path exactly one succeeds and the other says "exists".
 
 Light imports only (the CLI imports this module from its commands).
 """
@@ -110,3 +113,66 @@ def writing(path: str | Path, option: str | None = None, what: str = "the output
     except OSError as e:
         raise ConfigError(f"{_where(option, Path(path))}: cannot write {what} "
                           f"({e.strerror or e})") from None
+
+
+def _exists_error(path: Path, option: str | None) -> ConfigError:
+    return ConfigError(f"{_where(option, path)}: exists (written meanwhile, perhaps by another "
+                       f"navbench process); nothing was overwritten: choose a new path")
+
+
+def publish(tmp: str | Path, path: str | Path, option: str | None = None) -> Path:
+    """Move the finished ``tmp`` (a file or a folder beside ``path``) to ``path`` in one step that
+    fails when ``path`` appeared meanwhile: of two writers racing for one path, exactly one
+    wins and the other gets one :class:`ConfigError` ("exists"), never a silent overwrite.
+
+    A file is hard-linked into place (``link`` never replaces), else reserved with ``O_EXCL``
+    and renamed over its reservation; a folder is renamed into place (which replaces only an
+    empty folder: the "new or empty" output folders)."""
+    import errno
+
+    tmp, p = Path(tmp), Path(path)
+    if tmp.is_dir() and not tmp.is_symlink():
+        try:
+            os.rename(tmp, p)
+        except OSError as e:
+            if e.errno in (errno.EEXIST, errno.ENOTEMPTY, errno.ENOTDIR, errno.EISDIR):
+                raise _exists_error(p, option) from None
+            raise
+        return p
+    try:
+        os.link(tmp, p)
+    except FileExistsError:
+        raise _exists_error(p, option) from None
+    except OSError:  # no hard links here (some network or FAT file systems): reserve, then rename
+        try:
+            os.close(os.open(p, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+        except FileExistsError:
+            raise _exists_error(p, option) from None
+        os.replace(tmp, p)
+    else:
+        os.unlink(tmp)
+    return p
+
+
+@contextmanager
+def exclusive_output(path: str | Path, option: str | None = None, what: str = "the output"):
+    """Yield a temporary path beside ``path`` (same suffix) for the writer to create as a file or
+    a folder; when the block succeeds, :func:`publish` it at ``path``. Whatever fails, the
+    temporary path is gone afterwards; an ``OSError`` becomes one :class:`ConfigError`."""
+    import shutil
+    import uuid
+
+    p = Path(path)
+    tmp = p.with_name(f".{p.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.part{p.suffix}")
+    try:
+        with writing(p, option, what):
+            yield tmp
+            publish(tmp, p, option)
+    finally:
+        if tmp.is_dir() and not tmp.is_symlink():
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:
+                pass

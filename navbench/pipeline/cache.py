@@ -27,7 +27,12 @@ Garbage collection (:meth:`ArtifactStore.gc`) keeps
   and task set) whose inputs that are stored artifacts are all kept (inputs that name no
   stored artifact are content hashes of committed files such as ``levels/NAME.json``),
 
-and removes all other artifacts and every stale temporary or quarantined directory.
+and removes all other artifacts and every stale temporary or quarantined directory. It removes
+only what it can prove is navbench's (:mod:`navbench.pipeline.ownership`): the root must be a
+navbench cache (the marker file navbench writes when it creates the root, or the layout of an
+older cache), an entry must carry a manifest navbench wrote (a folder without one is reported,
+never removed), and an entry a live process holds (every lookup, load and write records a hold
+in ``<root>/.holds/``) is kept with its inputs.
 """
 
 from __future__ import annotations
@@ -39,7 +44,7 @@ import os
 import shutil
 import time
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
@@ -47,8 +52,8 @@ from navbench import __version__
 from navbench.config import config_hash, read_json, to_jsonable
 from navbench.errors import ArtifactError
 
-MANIFEST = "manifest.json"
-REFS_DIR = "refs"
+from navbench.pipeline.ownership import BAD_NAME, MANIFEST, REFS_DIR, TMP_NAME, ensure_root, hold
+
 TMP_PREFIX = ".tmp-"
 BAD_PREFIX = ".bad-"
 #: Stages whose artifacts are per-item children of others (kept while all their inputs are kept).
@@ -141,6 +146,7 @@ class ArtifactStore:
         d = self.path(stage, key)
         if not d.exists():
             return None
+        hold(self.root, stage, key)  # before the check: a gc that runs meanwhile sees it
         try:
             self.verify(stage, key)
         except ArtifactError as e:
@@ -154,6 +160,7 @@ class ArtifactStore:
         d = self.path(stage, key)
         if not d.exists():
             raise ArtifactError(f"no {stage} artifact with key {key[:12]} in {self.root}")
+        hold(self.root, stage, key)
         self.verify(stage, key)
         return d
 
@@ -181,21 +188,35 @@ class ArtifactStore:
     # ------------------------------------------------------------------ writing
     def write(self, stage: str, key: str, compute: Callable[[Path], None], *, config: Any,
               inputs: dict[str, str], version: int, log: Log = _noop,
-              replace: bool = False) -> Path:
+              replace: bool = False, validate: Callable[[Path], None] | None = None) -> Path:
         """Run ``compute(tmpdir)`` and atomically install its files as artifact ``key``.
 
         ``compute`` writes plain files (subdirectories allowed) into ``tmpdir``; the manifest is
         added here. A valid artifact with this key that appeared meanwhile (another process
         computing the same stage) is kept and ours dropped, so a concurrent reader of it never
         sees it vanish; it is replaced only with ``replace`` (``--force``). An invalid one is
-        always replaced.
+        always replaced. Nothing that fails to load is installed: an ``.npy`` / ``.npz`` file
+        holding an array of Python objects (which navbench never unpickles) is one
+        :class:`ArtifactError`, and so is whatever ``validate(tmpdir)`` (the stage's own loader)
+        raises.
         """
         final = self.path(stage, key)
+        ensure_root(self.root)
+        hold(self.root, stage, key)  # ours (and the inputs this process read) until it exits
         final.parent.mkdir(parents=True, exist_ok=True)
         tmp = final.parent / f"{TMP_PREFIX}{key[:16]}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         tmp.mkdir()
         try:
             compute(tmp)
+            _refuse_object_arrays(tmp, stage)
+            if validate is not None:
+                try:
+                    validate(tmp)
+                except ArtifactError:
+                    raise
+                except Exception as e:  # noqa: BLE001 - a stage's loader: what it says, one line
+                    raise ArtifactError(f"{stage}: the artifact just computed does not load back "
+                                        f"({type(e).__name__}: {e}); nothing was cached") from None
             files = {}
             for p in sorted(tmp.rglob("*")):
                 if p.is_file() and p.name != MANIFEST:
@@ -239,6 +260,7 @@ class ArtifactStore:
     # ------------------------------------------------------------------ refs (gc roots)
     def set_ref(self, name: str, keys: Iterable[tuple[str, str]]) -> Path:
         """Record ``(stage, key)`` pairs used by the latest run called ``name`` (a gc root)."""
+        ensure_root(self.root)
         d = self.root / REFS_DIR
         d.mkdir(parents=True, exist_ok=True)
         from navbench.outpath import write_text_atomic
@@ -286,31 +308,115 @@ class ArtifactStore:
         return out
 
     def stale_temp_dirs(self, min_age_s: float = 0.0) -> list[Path]:
-        """Temporary and quarantined directories whose writer is gone (or older than min_age_s)."""
+        """Temporary and quarantined directories navbench made (by their names; never a link)
+        whose writer is gone (temporary ones), older than ``min_age_s``."""
         out = []
         if not self.root.is_dir():
             return out
         now = time.time()
         for sd in self.root.iterdir():
-            if not sd.is_dir():
+            if sd.is_symlink() or not sd.is_dir():
                 continue
             for d in sd.iterdir():
-                if not d.name.startswith((TMP_PREFIX, BAD_PREFIX)):
+                tmp = TMP_NAME.fullmatch(d.name) is not None
+                if not (tmp or BAD_NAME.fullmatch(d.name)) or d.is_symlink() or not d.is_dir():
                     continue
-                if d.name.startswith(TMP_PREFIX) and _writer_alive(d.name):
+                if tmp and _writer_alive(d.name):
                     continue
-                if now - d.stat().st_mtime >= min_age_s:
+                if now - d.lstat().st_mtime >= min_age_s:
                     out.append(d)
         return sorted(out)
 
-    def gc(self, keep_newest: int = 1, dry_run: bool = False) -> list[Path]:
-        """Remove unreferenced artifacts and stale temp dirs (policy: module docstring).
+    def gc(self, keep_newest: int = 1, dry_run: bool = False) -> "GcReport":
+        """Remove what no run refers to (policy: module docstring), only from a root proven to be
+        a navbench cache and only entries whose manifest navbench wrote, never one a live
+        process holds (:mod:`navbench.pipeline.ownership`). ``dry_run``: remove nothing and
+        report what a real run would remove. A root that is not a navbench cache raises
+        :class:`~navbench.errors.ConfigError` before anything is touched."""
+        from navbench.pipeline.ownership import held_entries, holders, navbench_manifest, prove_root
 
-        Returns the removed (or, with ``dry_run``, the removable) paths.
-        """
-        infos = self.ls()
+        if not self.root.is_dir():
+            return GcReport("no cache", dry_run)
+        report = GcReport(prove_root(self.root), dry_run)
+        infos = []
+        for sd in sorted(self.root.iterdir()):
+            if sd.name.startswith(".") or sd.name == REFS_DIR:
+                continue
+            if sd.is_symlink() or not sd.is_dir():
+                report.foreign.append((sd, "a link" if sd.is_symlink() else "a file"))
+                continue
+            for ad in sorted(sd.iterdir()):
+                if ad.name.startswith("."):
+                    if (TMP_NAME.fullmatch(ad.name) or BAD_NAME.fullmatch(ad.name)) and ad.is_symlink():
+                        report.foreign.append((ad, "a link, which navbench never makes"))
+                    continue
+                man = None if ad.is_symlink() else navbench_manifest(ad)
+                if man is None:
+                    why = ("a link" if ad.is_symlink() else "a file" if not ad.is_dir()
+                           else "no manifest navbench wrote")
+                    report.foreign.append((ad, why))
+                    continue
+                size = sum(int(m["size"]) for m in man["files"].values())
+                infos.append(ArtifactInfo(sd.name, ad.name, ad, size, man["created"],
+                                          dict(man.get("inputs", {})), dict(man.get("config") or {})))
+        infos.sort(key=lambda i: (i.created, i.stage, i.key))
+        held = held_entries(self.root)
+        kept = self._kept(infos, keep_newest, set(held))
+        for i in infos:
+            if (i.stage, i.key) in held and (i.stage, i.key) in kept:
+                report.held.append((i.path, f"pid {held[(i.stage, i.key)].pid}"))
+        doomed = [i for i in infos if (i.stage, i.key) not in kept]
+        stale = self.stale_temp_dirs()
+        dead = [h.path for h in holders(self.root) if not h.live]
+        if dry_run:
+            report.removed = [i.path for i in doomed] + stale + dead
+            return report
+        aside = []
+        for i in doomed:  # out of readers' sight first, then a second look at the holders
+            bad = i.path.parent / f"{BAD_PREFIX}{i.key[:16]}-{uuid.uuid4().hex[:8]}"
+            try:
+                os.rename(i.path, bad)
+            except OSError as e:
+                report.failed.append((i.path, e.strerror or str(e)))
+                continue
+            aside.append((i, bad))
+        late = held_entries(self.root)
+        for i, bad in aside:
+            if (i.stage, i.key) in late:  # a process took it meanwhile: put it back
+                try:
+                    os.rename(bad, i.path)
+                    report.held.append((i.path, f"pid {late[(i.stage, i.key)].pid}"))
+                    continue
+                except OSError:
+                    pass  # it was recomputed meanwhile: ours is a spare copy
+            self._remove(bad, i.path, report)
+        for d in stale:
+            self._remove(d, d, report)
+        for p in dead:
+            try:
+                p.unlink()
+                report.removed.append(p)
+            except FileNotFoundError:
+                pass
+            except OSError as e:
+                report.failed.append((p, e.strerror or str(e)))
+        return report
+
+    @staticmethod
+    def _remove(path: Path, shown: Path, report: "GcReport") -> None:
+        errors = []
+        shutil.rmtree(path, onerror=lambda _f, p, exc: errors.append(f"{p}: {exc[1]}"))
+        if path.exists() or path.is_symlink():
+            report.failed.append((shown, errors[0] if errors else "still there"))
+        else:
+            report.removed.append(shown)
+
+    def _kept(self, infos: list[ArtifactInfo], keep_newest: int,
+              held: set[tuple[str, str]]) -> set[tuple[str, str]]:
+        """The entries gc keeps: refs, the newest per stage, held ones, their inputs, and the
+        per-item entries whose stored inputs are all kept."""
         by_key = {(i.stage, i.key): i for i in infos}
-        roots: set[tuple[str, str]] = set()
+        roots: set[tuple[str, str]] = {k for k in held if k in by_key}
         for keys in self.refs().values():
             roots.update(k for k in keys if k in by_key)
         per_stage: dict[str, list[ArtifactInfo]] = {}
@@ -321,7 +427,7 @@ class ArtifactStore:
                 continue
             roots.update((i.stage, i.key) for i in items[-keep_newest:])
         # input keys name no stage: index every artifact by key
-        stage_of = {}
+        stage_of: dict[str, list[str]] = {}
         for s, k in by_key:
             stage_of.setdefault(k, []).append(s)
         kept: set[tuple[str, str]] = set()
@@ -339,12 +445,21 @@ class ArtifactStore:
             stored_inputs = [v for v in i.inputs.values() if v in stage_of]
             if i.stage in PER_ITEM_STAGES and stored_inputs and all(v in kept_keys for v in stored_inputs):
                 kept.add((i.stage, i.key))
-        removable = [i.path for i in infos if (i.stage, i.key) not in kept]
-        removable += self.stale_temp_dirs()
-        if not dry_run:
-            for p in removable:
-                shutil.rmtree(p, ignore_errors=True)
-        return removable
+        return kept
+
+
+@dataclass
+class GcReport:
+    """What :meth:`ArtifactStore.gc` did: ``removed`` (with ``dry_run``: what it would remove),
+    ``held`` (kept: a live process holds them), ``foreign`` (not navbench's, left in place, with
+    why), ``failed`` (could not be removed, with why); ``proof``: how the root was proven."""
+
+    proof: str
+    dry_run: bool = False
+    removed: list = field(default_factory=list)
+    held: list = field(default_factory=list)
+    foreign: list = field(default_factory=list)
+    failed: list = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -371,9 +486,43 @@ def _writer_alive(name: str) -> bool:
     return True
 
 
+def _refuse_object_arrays(d: Path, stage: str) -> None:
+    """:class:`ArtifactError` when an ``.npy`` or ``.npz`` file under ``d`` holds an array of Python
+    objects (it could only be read back by unpickling, which navbench never does). Reads the
+    array headers only."""
+    import zipfile
+
+    from numpy.lib import format as npformat
+
+    def has_objects(f) -> bool:
+        major, _minor = npformat.read_magic(f)
+        read = npformat.read_array_header_1_0 if major == 1 else npformat.read_array_header_2_0
+        return bool(read(f)[2].hasobject)
+
+    for p in sorted(d.rglob("*")):
+        bad = None
+        try:
+            if p.suffix == ".npy" and p.is_file():
+                with open(p, "rb") as f:
+                    bad = p.name if has_objects(f) else None
+            elif p.suffix == ".npz" and p.is_file():
+                with zipfile.ZipFile(p) as z:
+                    for name in z.namelist():
+                        with z.open(name) as f:
+                            if name.endswith(".npy") and has_objects(f):
+                                bad = f"{p.name}:{name[:-4]}"
+                                break
+        except (OSError, ValueError, zipfile.BadZipFile) as e:
+            raise ArtifactError(f"{stage}: the artifact just computed has an unreadable "
+                                f"{p.relative_to(d)} ({e}); nothing was cached") from None
+        if bad:
+            raise ArtifactError(f"{stage}: the artifact just computed holds an array of Python "
+                                f"objects ({bad}), which navbench cannot load; nothing was cached")
+
+
 def run_stage(store: ArtifactStore, stage: str, config: Any, inputs: dict[str, str], version: int,
               compute: Callable[[Path], None], force: bool = False,
-              log: Log = _noop) -> tuple[Path, str, bool]:
+              log: Log = _noop, validate: Callable[[Path], None] | None = None) -> tuple[Path, str, bool]:
     """Return ``(artifact dir, key, cached)``, running ``compute(tmpdir)`` only on a miss.
 
     The key (:func:`stage_key`) is computed first; a verified artifact with that key is reused
@@ -388,5 +537,5 @@ def run_stage(store: ArtifactStore, stage: str, config: Any, inputs: dict[str, s
             return hit, key, True
     log(f"{stage}: computing {key[:12]}")
     path = store.write(stage, key, compute, config=config, inputs=inputs, version=version, log=log,
-                       replace=force)
+                       replace=force, validate=validate)
     return path, key, False

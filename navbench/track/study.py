@@ -98,6 +98,11 @@ class TrackingStudyConfig:
         if self.kidnap_every and self.odometry != "body":
             raise ConfigError("--kidnap-every needs --odometry body (world-frame controls would "
                               "tell the estimators the new true heading)")
+        if self.kidnap_every and self.steps < int(self.kidnap_every) + 5:
+            raise ConfigError(f"--kidnap-every {self.kidnap_every} with --steps {self.steps}: no "
+                              f"kidnap fits (the first is at step {self.kidnap_every} and needs 5 "
+                              f"steps after it to recover); give --steps >= "
+                              f"{int(self.kidnap_every) + 5} or a smaller --kidnap-every")
 
 
 #: What a trajectory recording does after a collision (:class:`TrackingStudyConfig.collisions`).
@@ -312,7 +317,8 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
                 out_est[name][k] = np.concatenate([r[k][:Ne] for r in rows])
     extra = {}
     if config.kidnap_every:
-        extra["kidnapped"] = np.stack([t.kidnapped for t in trajectories])
+        extra["kidnapped"] = np.stack([np.zeros(len(t.true_poses), bool) if t.kidnapped is None
+                                       else t.kidnapped for t in trajectories])
     return {
         "config": _config_dict(config),
         "level": level.name,

@@ -17,6 +17,10 @@ def evaluate_map(vmap, level, heldout: Views, step: float | None = None) -> dict
     ``coverage``: fraction of observed-valid pixels the map renders a crossing for;
     ``slice_precision`` / ``slice_recall``: the band occupancy slice vs the level's raster with
     a one-cell tolerance (:func:`navbench.worldmodel.grid.slice_scores`).
+
+    A metric over nothing is ``None``, never 0: the depth MAE and RGB L1 when no pixel is both
+    observed and rendered (a map that renders nothing within its ``max_range``), the coverage
+    when no held-out pixel is observed, a slice score whose denominator is empty.
     """
     fr = vmap.renderer(heldout.intrinsics, heldout.camera_height,
                        max_range=float(vmap.meta.get("max_range", 20.0)), step=step)
@@ -31,10 +35,14 @@ def evaluate_map(vmap, level, heldout: Views, step: float | None = None) -> dict
         abs_c += float(np.abs(frame.rgb[both] - rgb[both]).sum())
         n_both += int(both.sum())
         n_obs += int(obs_ok.sum())
-    out = {"depth_mae_m": abs_d / max(1, n_both), "rgb_l1": abs_c / max(1, 3 * n_both),
-           "coverage": n_both / max(1, n_obs), "heldout_views": len(heldout)}
+    out = {"depth_mae_m": abs_d / n_both if n_both else None,
+           "rgb_l1": abs_c / (3 * n_both) if n_both else None,
+           "coverage": n_both / n_obs if n_obs else None, "heldout_views": len(heldout)}
     if level is not None:
+        import math
+
         from navbench.worldmodel.grid import slice_scores
 
-        out["slice_precision"], out["slice_recall"] = slice_scores(vmap, level)
+        for k, v in zip(("slice_precision", "slice_recall"), slice_scores(vmap, level)):
+            out[k] = v if math.isfinite(v) else None
     return out

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -374,16 +375,16 @@ def cell_tolerance_scores(pred: np.ndarray, true: np.ndarray, tol_cells: int = 1
 
     ``pred``, ``true``: ``(nx, ny)`` bool rasters on the same cells. Precision: the fraction of
     predicted-occupied cells within ``tol_cells`` of a truly occupied cell; recall: the fraction
-    of truly occupied cells within ``tol_cells`` of a predicted-occupied one. 1.0 when the
-    denominator is empty.
+    of truly occupied cells within ``tol_cells`` of a predicted-occupied one. NaN when the
+    denominator is empty (a map that predicts nothing has no precision, not a perfect one).
     """
     from scipy.ndimage import binary_dilation
 
     st = np.ones((2 * tol_cells + 1,) * 2, bool)
     pred = np.asarray(pred, bool)
     true = np.asarray(true, bool)
-    prec = float((pred & binary_dilation(true, st)).sum() / pred.sum()) if pred.any() else 1.0
-    rec = float((true & binary_dilation(pred, st)).sum() / true.sum()) if true.any() else 1.0
+    prec = float((pred & binary_dilation(true, st)).sum() / pred.sum()) if pred.any() else math.nan
+    rec = float((true & binary_dilation(pred, st)).sum() / true.sum()) if true.any() else math.nan
     return prec, rec
 
 

@@ -446,6 +446,10 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
         dep = _pixels(dm, dpath, dwhere)
         valid[n] = dep > 0
         depth[n] = np.where(valid[n], dep.astype(np.float64) / scale, np.inf)
+    if not valid.any():  # nothing to fit a map to or to score one on (a depth MAE of nothing)
+        raise ArtifactError(f"{d / 'depth.txt'}: no depth pixel of the {N} associated depth "
+                            f"images is valid (all 0 = no reading); a sequence without depth "
+                            f"cannot be fitted or scored")
     if box is None:
         from navbench.geometry import pixel_rays, transform_points
 

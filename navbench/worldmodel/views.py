@@ -25,6 +25,8 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -302,7 +304,7 @@ def save_views(views: Views, path, compress: bool = False) -> Path:
     arrays = {"poses": np.asarray(views.poses, np.float64), "rgb": views.rgb,
               "depth": views.depth, "valid": views.valid}
     if path.suffix == ".npz":
-        tmp = path.with_name(path.name + ".tmp.npz")
+        tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp.npz")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             np.savez(tmp, header=np.array(header), **arrays)

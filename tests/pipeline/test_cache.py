@@ -146,7 +146,7 @@ def test_gc_keeps_refs_their_inputs_and_newest(store):
     stale.mkdir()
     store.set_ref("quick", [("down", down)])
     # keep_newest=0: only the ref and what it depends on survive
-    removable = store.gc(keep_newest=0, dry_run=True)
+    removable = store.gc(keep_newest=0, dry_run=True).removed
     names = {p.name for p in removable}
     assert names == {up, down_old, ep_gone, stale.name}
     assert all(p.exists() for p in removable)  # dry run removes nothing
@@ -168,10 +168,13 @@ def test_gc_keep_newest_per_stage(store):
 
 
 def test_live_writer_temp_dir_is_not_collected(store):
+    from navbench.pipeline.ownership import ensure_root
+
+    ensure_root(store.root)  # as the writer's store.write does before its temp dir
     (store.root / "s").mkdir(parents=True)
     mine = store.root / "s" / f".tmp-abc-{os.getpid()}-1234"
     mine.mkdir()
-    assert mine not in store.gc(dry_run=True)
+    assert mine not in store.gc(dry_run=True).removed
 
 
 def test_cache_cli_ls_and_gc(store):
@@ -191,3 +194,28 @@ def test_cache_cli_ls_and_gc(store):
     store.set_ref("quick", [("s", new)])
     res = runner.invoke(app, ["cache", "gc", "--keep-newest", "0", "--root", str(store.root)])
     assert res.exit_code == 0 and "removed 0 entries" in res.output  # `old` is an input of `new`
+
+
+def test_an_artifact_that_would_not_load_is_never_cached(store):
+    """Issue 34: a stage that wrote an array of Python objects was cached, so every rerun failed
+    the same way. Such a file, or whatever the stage's own loader refuses, is one ArtifactError
+    and nothing is installed; the next run computes again."""
+    import numpy as np
+
+    def objects(d):
+        np.savez(d / "study.npz", ok=np.zeros(3), bad=np.array([None, np.zeros(2)], dtype=object))
+
+    for _ in range(2):
+        with pytest.raises(ArtifactError, match=r"array of Python objects \(study.npz:bad\)"):
+            run_stage(store, "s", {"a": 1}, {}, 1, objects)
+        assert list((store.root / "s").iterdir()) == []
+
+    def loader(d):
+        raise ValueError("study.npz: no 'trajectories'")
+
+    f = Counter()
+    with pytest.raises(ArtifactError, match="does not load back .*no 'trajectories'"):
+        run_stage(store, "s", {"a": 2}, {}, 1, f, validate=loader)
+    assert list((store.root / "s").iterdir()) == []
+    _, _, cached = run_stage(store, "s", {"a": 2}, {}, 1, f, validate=lambda d: None)
+    assert not cached and f.calls == 2

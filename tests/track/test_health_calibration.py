@@ -128,7 +128,7 @@ def test_calibration_stage_uses_the_maps_held_out_views_and_is_cached(tmp_path, 
     held = collect_views_stage(ctx, lvl, ViewsConfig(5, "half", 2))
 
     def fake_fit(d):
-        (d / "map.npz").write_bytes(b"not read by this test")
+        np.savez(d / "map.npz", unread=np.zeros(1))  # not read by this test (the cache checks it is an npz)
 
     path, key, _ = ctx.run("fit-map", {"fake": 1}, {"level": lvl.key, "views": train.key,
                                                      "eval_views": held.key}, fake_fit)

@@ -65,26 +65,36 @@ def ls(
 def gc(
     keep_newest: int = typer.Option(1, "--keep-newest", min=0,
                                     help="Also keep the N newest artifacts of every stage."),
-    dry_run: bool = typer.Option(False, "--dry-run", help="List what would be removed."),
-    root: str = typer.Option("results/cache", "--root", help="Cache directory."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="List exactly what would be removed; remove nothing."),
+    root: str = typer.Option("results/cache", "--root", help="Cache directory (it must be a navbench cache)."),
 ):
     """Remove artifacts no run refers to, and stale temporary directories.
 
     Kept: the artifacts of the latest run of every profile/command (results/cache/refs/), the
-    newest N per stage, everything they depend on, and episode trajectories whose level, map and
-    task set are kept.
+    newest N per stage, every artifact a running navbench process holds, everything they
+    depend on, and episode trajectories whose level, map and task set are kept. Only a folder
+    proven to be a navbench cache is collected, and only entries whose manifest navbench wrote
+    (anything else is listed, never removed); see docs/concepts/bad-input.md.
     """
     from navbench.pipeline.cache import ArtifactStore
 
     if not _cache_root(root).is_dir():
         console.print(f"no cache at {root} yet: nothing to remove", markup=False)
         return
-    store = ArtifactStore(root)
-    removed = store.gc(keep_newest=keep_newest, dry_run=dry_run)
+    rep = ArtifactStore(root).gc(keep_newest=keep_newest, dry_run=dry_run)
     verb = "would remove" if dry_run else "removed"
-    for p in removed:
-        console.print(f"{verb} {p}", markup=False)
-    console.print(f"{verb} {len(removed)} entries")
+    for p in rep.removed:
+        console.print(f"{verb} {p}", markup=False, highlight=False)
+    for p, who in rep.held:
+        console.print(f"kept {p}: in use by a running navbench process ({who})", markup=False, highlight=False)
+    for p, why in rep.foreign:
+        console.print(f"left {p}: not navbench's ({why})", markup=False, highlight=False)
+    for p, why in rep.failed:
+        console.print(f"could not remove {p}: {why}", markup=False, highlight=False)
+    extra = "".join(f", {n} {what}" for n, what in ((len(rep.held), "in use"),
+                                                      (len(rep.foreign), "not navbench's"),
+                                                      (len(rep.failed), "not removable")) if n)
+    console.print(f"{verb} {len(rep.removed)} entries{extra}", markup=False, highlight=False)
 
 
 def register(app: typer.Typer) -> None:

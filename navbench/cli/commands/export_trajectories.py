@@ -37,6 +37,8 @@ def register(app: typer.Typer) -> None:
         (or trajectory), seed and key. DIR/index.csv lists every pair. Check one with evo:
         evo_ape tum X.gt.txt X.est.txt
         """
+        import dataclasses
+
         from navbench.errors import ConfigError
         from navbench.pipeline.run import open_db
         from navbench.pipeline.tracking import export_trajectories
@@ -52,9 +54,16 @@ def register(app: typer.Typer) -> None:
             from navbench.results.db.resume import resolve_run_ids
 
             run_id = resolve_run_ids(rdb, run, latest="any")
-            pairs = export_trajectories(out, rdb, run=run_id, level=parse_list(level) or None,
-                                        estimator=parse_list(estimator) or None,
-                                        noise=parse_list(noise) or None, task=tasks, source=source, dt=dt)
+            if out.is_dir() and any(out.iterdir()):
+                raise ConfigError(f"{out}: exists and is not an empty directory; export into a new one")
+            from navbench.outpath import exclusive_output
+
+            with exclusive_output(out, "DIR", "the export") as tmp:  # one of two racing exports wins
+                pairs = export_trajectories(tmp, rdb, run=run_id, level=parse_list(level) or None,
+                                            estimator=parse_list(estimator) or None,
+                                            noise=parse_list(noise) or None, task=tasks, source=source, dt=dt)
+            pairs = [dataclasses.replace(p, gt=out / p.gt.relative_to(tmp), est=out / p.est.relative_to(tmp))
+                     for p in pairs]
         if json_out:
             print_json({"out": str(out), "pairs": len(pairs), "index": str(out / "index.csv"),
                         "files": [{"gt": str(p.gt), "est": str(p.est), "source": p.source,

@@ -30,8 +30,14 @@ def register(app: typer.Typer) -> None:
         from navbench.outpath import check_output
 
         check_output(directory, "DIR", kind="dir", example="tum/seq1")  # before the views are read
+        if directory.is_dir() and any(directory.iterdir()):
+            raise ConfigError(f"DIR {directory}: directory is not empty; export into a new or "
+                              f"empty directory")
         views, _ = resolve_views(views_spec, what="VIEWS")
-        export_views(views, directory)
+        from navbench.outpath import exclusive_output
+
+        with exclusive_output(directory, "DIR", "the export") as tmp:  # one of two racing exports wins
+            export_views(views, tmp)
         # user text (paths, level names) is printed literally: a '[/x]' in a path is not a tag
         console.print(f"exported {len(views)} views of {views.level} -> {directory}",
                       markup=False, highlight=False)

@@ -104,6 +104,10 @@ def register(app: typer.Typer) -> None:
             t.add_row(f"{k} {units.get(k, '')}".strip(), "-" if v is None else
                       escape(f"{v:.4f}" if isinstance(v, float) else str(v)))
         console.print(t)
+        if out.get("depth_mae_m") is None:  # a score of nothing is no score: marked, not 0
+            console.print("note: no held-out pixel is both observed and rendered by the map "
+                          "(coverage 0, or nothing within its max_range): depth MAE and RGB L1 "
+                          "are undefined (-), not 0", markup=False, highlight=False)
 
 
 def _profile_route(ctx, level, views) -> bool:

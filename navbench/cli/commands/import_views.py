@@ -49,8 +49,11 @@ def register(app: typer.Typer) -> None:
                          example="views.npz")
         views = opts.read(directory)
         content = views_content_hash(views)
-        if out is not None:
-            save_views(views, out)
+        if out is not None:  # published in one step that fails if --out appeared meanwhile
+            from navbench.outpath import exclusive_output
+
+            with exclusive_output(out, "--out", "the views") as tmp:
+                save_views(views, tmp)
         ref = None
         if store:
             from navbench.pipeline.run import stage_context

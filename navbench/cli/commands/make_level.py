@@ -34,8 +34,20 @@ def _write(level, force: bool) -> tuple[Path, str]:
         with writing(path, None, "the level"):
             save_level(level, path)
         return path, "replaced"
-    with writing(path, None, "the level"):
-        save_level(level, path)
+    from navbench.errors import ConfigError
+    from navbench.outpath import exclusive_output
+
+    try:  # a new file: published in one step that fails if another process wrote it meanwhile
+        with exclusive_output(path, None, "the level") as tmp:
+            tmp.parent.mkdir(parents=True, exist_ok=True)
+            tmp.write_text(text, encoding="utf-8")
+    except ConfigError:
+        if not path.is_file():
+            raise
+        if path.read_text() != text:
+            raise LevelError(f"{path} was written meanwhile (another process?) and differs from "
+                             "the generated level; pass --force to overwrite it") from None
+        return path, "unchanged"
     return path, "written"
 
 

@@ -46,10 +46,11 @@ class StageContext:
         return "*" in self.force or stage in self.force
 
     def run(self, stage: str, config: Any, inputs: dict[str, str],
-            compute: Callable[[Path], None]) -> tuple[Path, str, bool]:
+            compute: Callable[[Path], None],
+            validate: Callable[[Path], None] | None = None) -> tuple[Path, str, bool]:
         t0 = time.perf_counter()
         path, key, cached = run_stage(self.store, stage, config, inputs, FORMAT[stage], compute,
-                                      force=self.forced(stage), log=self.log)
+                                      force=self.forced(stage), log=self.log, validate=validate)
         self.timings.append((stage, time.perf_counter() - t0, bool(cached)))
         self.used.append((stage, key))
         return path, key, cached

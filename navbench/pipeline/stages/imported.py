@@ -155,7 +155,14 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
 
     fit_cfg = cfg.fit_config()
     if heldout is None:
-        heldout_split(len(views), cfg.heldout_every)  # a split that holds out nothing fails now
+        train_idx, held_idx = heldout_split(len(views), cfg.heldout_every)  # nothing held out fails now
+        _require_depth(views, "--views (the fitted part of the split)", train_idx)
+        _require_depth(views, f"--views (the held-out part: every {cfg.heldout_every}th view)",
+                       held_idx)
+    else:
+        _require_depth(views, "--views")
+        _require_depth(heldout, "--heldout")
+        _require_disjoint(views, views_key, heldout, heldout_key)
     resolved = {"fit": to_jsonable(fit_cfg),
                 "heldout": "given" if heldout is not None else f"every {cfg.heldout_every}"}
     inputs = {"views": views_key}
@@ -181,3 +188,43 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
     if ctx.db is not None:
         ctx.db.record_map(name, key, metrics)
     return Ref("fit-map", key, path / MAP_FILE, cached, name, metrics)
+
+
+def _require_depth(views, what: str, idx=None) -> None:
+    """One :class:`ConfigError` when ``views`` (those at ``idx``, default all) have no valid
+    depth pixel: a map fitted to them learns nothing, and a quality measured on them is a
+    score of nothing."""
+    import numpy as np
+
+    idx = range(len(views)) if idx is None else [int(i) for i in idx]
+    if not any(np.asarray(views.valid[i]).any() for i in idx):
+        raise ConfigError(f"{what}: none of its {len(idx)} views has a valid depth pixel; a map "
+                          f"cannot be fitted to or scored on views without depth")
+
+
+def _require_disjoint(views, views_key: str, heldout, heldout_key: str | None) -> None:
+    """One :class:`ConfigError` when the held-out views are the training views (the same
+    content), or share a view with them (identical pose and colour image): held-out quality
+    is measured on views the map was not fitted to (the profiles' [views] eval_seed rule)."""
+    import hashlib
+
+    import numpy as np
+
+    if heldout_key is not None and heldout_key == views_key:
+        raise ConfigError(f"--heldout: the same views as --views (content key {views_key[:12]}); "
+                          f"held-out quality must come from views the map is not fitted to (leave "
+                          f"--heldout out to hold out every Nth view of --views)")
+
+    def frame_ids(v) -> set[str]:
+        out = set()
+        for k in range(len(v)):
+            h = hashlib.sha1(np.asarray(v.poses[k], np.float64).tobytes())
+            h.update(np.ascontiguousarray(v.rgb[k]).tobytes())
+            out.add(h.hexdigest())
+        return out
+
+    shared = frame_ids(heldout) & frame_ids(views)
+    if shared:
+        raise ConfigError(f"--heldout: {len(shared)} of its {len(heldout)} views are also in --views "
+                          f"(identical pose and colour image); held-out quality must come from views "
+                          f"the map is not fitted to")

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from navbench.errors import ConfigError
-from navbench.pipeline.artifacts import STUDY_FILE, save_study
+from navbench.pipeline.artifacts import STUDY_FILE, load_study, save_study
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.inputs import fit_map_for_profile
 from navbench.pipeline.stages.level import LevelConfig, load_level_ref, make_level_stage
@@ -155,7 +155,8 @@ def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:
         save_study(results, d / STUDY_FILE)
 
     path, key, cached = ctx.run("track-eval", study_key_config(cfg),
-                                {"level": level.key, "map": vmap.key, **calibration_keys}, compute)
+                                {"level": level.key, "map": vmap.key, **calibration_keys}, compute,
+                                validate=lambda d: load_study(d / STUDY_FILE))  # never cache what fails to load
     meta = {"map_key": vmap.key}
     if thresholds:
         meta["health_thresholds"] = thresholds
