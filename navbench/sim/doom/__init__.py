@@ -59,7 +59,8 @@ Depth buffer
     pixels are invalid. The converted depth is within one step of the exact depth for 99.93 %
     of floor, 99.63 % of ceiling and 99.73 % of wall pixels at 320 x 240, and for 96.8 %,
     98.8 % and 99.1 % at 160 x 120. No sprites: a converted map holds only the player start.
-Frames per second (house-1, ``reset(pose)`` with its frame, median of 7 x 200 on the 2-core
-    machine under a load average of ~14): 214 at 320 x 240 and 581 at 160 x 120 (the pymunk
-    Simulator on the same poses: 53 and 184).
+Frames per second (house-1, ``reset(pose)`` with its frame converted, median of 7 x 200 on
+    the shared 2-core machine, load average ~12; ``docs/data/vizdoom/fps.txt``): 277 at
+    320 x 240 and 653 at 160 x 120 (an earlier run under load ~14: 214 and 581). The engine is a
+    process of its own. The pymunk Simulator's ``reset`` on the same poses: 64 and 257.
 """
