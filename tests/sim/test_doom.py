@@ -13,7 +13,8 @@ from navbench.geometry import AGENT_RADIUS, PAPER_CAMERA  # noqa: E402
 from navbench.level import prisms  # noqa: E402
 from navbench.sim.doom.engine import (ANGLE_UNITS, DEPTH_LINEAR, DoomEngine,  # noqa: E402
                                       saturation_value)
-from navbench.sim.doom.simulator import DoomSimulator  # noqa: E402
+from navbench.errors import ConfigError  # noqa: E402
+from navbench.sim.doom.simulator import DoomSimulator, buffer_to_metres  # noqa: E402
 from navbench.sim.doom.wad import UNITS_PER_METRE, level_to_map, read_wad  # noqa: E402
 from navbench.sim.dynamics import Control  # noqa: E402
 from navbench.sim.world import sample_free_points  # noqa: E402
@@ -196,6 +197,24 @@ def test_exact_depth_option_and_pixel_subsets(make_sim):
     assert np.isnan(g.depth[0, 11]) and np.array_equal(g.rgb[H // 2, W // 2], f.rgb[H // 2, W // 2])
 
 
+def test_buffer_to_metres_marks_saturation_and_discontinuities():
+    a, b = DEPTH_LINEAR[(160, 120)]
+    buf = np.full((120, 160), 20, np.uint8)
+    buf[:, 80:] = 24  # a 4-step jump between columns 79 and 80
+    buf[:10, :10] = saturation_value(120)  # saturated corner
+    buf[110:, 150:] = 255  # values the engine writes above saturation on far flats
+    depth, valid = buffer_to_metres(buf, (160, 120), edge_steps=None)
+    assert depth[50, 40] == pytest.approx((a * 20 + b) / 100) and depth[50, 120] == pytest.approx((a * 24 + b) / 100)
+    assert not valid[:10, :10].any() and not valid[110:, 150:].any() and np.isinf(depth[:10, :10]).all()
+    assert valid[20:100, 79:81].all()  # no discontinuity test without edge_steps
+    depth, valid = buffer_to_metres(buf, (160, 120), edge_steps=3)
+    assert not valid[20:100, 79:81].any() and valid[20:100, 78].all() and valid[20:100, 81].all()
+    depth, valid = buffer_to_metres(buf, (160, 120), edge_steps=4)
+    assert valid[20:100, 79:81].all()
+    with pytest.raises(ConfigError):
+        DoomSimulator(rooms(), intrinsics=None, edge_steps=-1)
+
+
 # ------------------------------------------------------------------------- the simulator contract
 
 def test_contract_walk_into_wall(make_sim):
@@ -235,3 +254,20 @@ def test_rounded_position_overlapping_a_solid_collides(make_sim):
     exact = contract.Simulator(single_wall(3.008), "none", intrinsics=None)
     exact.reset((2.70, 5.0, 0.0))
     assert not exact.step(Control(0.0, 0.0, 0.156)).collided
+
+
+def test_pieces_shorter_than_the_vertex_precision_are_dropped():
+    # box B's left edge lies 3 micrometres inside box A: the pieces of B's edges between A's
+    # edge and B's corner are 3 um long, below the 10 um the vertices are written with
+    from navbench.level import Obstacle
+
+    base = single_wall(9.0)
+    a = Obstacle(((1.0, 1.0), (2.0, 1.0), (2.0, 2.0), (1.0, 2.0)), 0.3, 1)
+    b = Obstacle(((1.999997, 1.5), (3.0, 1.5), (3.0, 1.8), (1.999997, 1.8)), 0.5, 3)
+    level = type(base)(base.name, base.width, base.depth, base.walls, (a, b), base.textures,
+                       base.floor_texture, base.ceiling_texture)
+    m = level_to_map(level)
+    assert np.all(np.any(m.lines[:, :2] != m.lines[:, 2:], axis=1))
+    with DoomEngine(level, (160, 120)) as eng:
+        floors = sorted(round(sec.floor_height) for sec in eng.sectors())
+    assert floors == [0, 30, 50]

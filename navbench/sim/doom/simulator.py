@@ -15,7 +15,8 @@ Frames: RGB is the engine's (float32 in [0, 1]); depth is the engine's depth buf
 metres (:func:`buffer_to_metres`) by default, or, with ``depth="exact"``, the exact z-depth of
 the level's geometry cast by :class:`~navbench.sim.camera.RaycastCamera` with the engine's
 projection from the engine's pose. ``valid`` is False where the buffer is saturated (farther
-than it reaches, or a far floor or ceiling the engine writes above its range); in the exact mode
+than it reaches, or a far floor or ceiling the engine writes above its range) and on depth
+discontinuities (``edge_steps``); in the exact mode
 it is the ray caster's (False only beyond its 20 m range). The converted maps hold no
 things but the player start, so no sprite is ever drawn (the player's own is not seen from its
 eye).
@@ -41,14 +42,33 @@ from navbench.sim.world import Simulator
 DEPTH_MODES = ("buffer", "exact")
 
 
-def buffer_to_metres(buffer: np.ndarray, resolution) -> tuple[np.ndarray, np.ndarray]:
+#: Default of ``edge_steps``: a pixel whose depth-buffer value differs from a 4-neighbour's by
+#: more than this many steps (3 x 7.1 cm) sits on a discontinuity and is invalid.
+EDGE_STEPS = 3
+
+
+def buffer_to_metres(buffer: np.ndarray, resolution, edge_steps: int | None = EDGE_STEPS
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """The engine's raw depth buffer ``(H, W) uint8`` as z-depth ``(H, W) float32`` metres and
     ``valid (H, W) bool``: ``z = (a * value + b) / 100`` with the measured
-    :data:`~navbench.sim.doom.engine.DEPTH_LINEAR` ``(a, b)`` of ``resolution``; pixels at or
-    above the saturation value are invalid (depth ``+inf``)."""
+    :data:`~navbench.sim.doom.engine.DEPTH_LINEAR` ``(a, b)`` of ``resolution``. Invalid
+    (depth ``+inf``): values at or above the saturation value, and, unless ``edge_steps`` is
+    None, pixels on a depth discontinuity (a 4-neighbour more than ``edge_steps`` values
+    away), where the engine's and the geometry's silhouettes may disagree by a pixel."""
     a, b = DEPTH_LINEAR[tuple(resolution)]
     v = np.asarray(buffer)
     valid = v < saturation_value(v.shape[0])
+    if edge_steps is not None:
+        vi = v.astype(np.int16)
+        jump = np.zeros(v.shape, np.int16)
+        for axis in (0, 1):
+            d = np.abs(np.diff(vi, axis=axis))
+            lo = [slice(None)] * 2
+            hi = [slice(None)] * 2
+            lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+            jump[tuple(lo)] = np.maximum(jump[tuple(lo)], d)
+            jump[tuple(hi)] = np.maximum(jump[tuple(hi)], d)
+        valid &= jump <= edge_steps
     depth = np.where(valid, (a * v.astype(np.float32) + np.float32(b)) / np.float32(UNITS_PER_METRE),
                      np.float32(np.inf)).astype(np.float32)
     return depth, valid
@@ -58,8 +78,9 @@ class DoomSimulator(Simulator):
     """The simulator with ViZDoom as its world's pose and camera (see the module docstring).
 
     Parameters as :class:`~navbench.sim.world.Simulator`'s, plus ``depth`` (``"buffer"``: the
-    engine's depth buffer, or ``"exact"``) and ``settle_tics`` (tics per teleport before the
-    frame is read; 2: the warp's own tic renders from near the floor, measured). With
+    engine's depth buffer, or ``"exact"``), ``settle_tics`` (tics per teleport before the
+    frame is read; 2: the warp's own tic renders from near the floor, measured) and
+    ``edge_steps`` (:func:`buffer_to_metres`; None keeps discontinuity pixels valid). With
     ``intrinsics=None`` nothing is read from the engine but its pose (it still runs, at
     160 x 120: the pose is its). ``pose_quantisation`` must stay ``"off"``: the engine
     quantises. Call :meth:`close` (or use ``with``) to stop the engine.
@@ -68,12 +89,15 @@ class DoomSimulator(Simulator):
     def __init__(self, level: Level, noise="none", seed: int = 0,
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
                  enforce_direction_limit: bool = False, pose_quantisation: str = "off",
-                 collision_check: str = "swept", depth: str = "buffer", settle_tics: int = 2):
+                 collision_check: str = "swept", depth: str = "buffer", settle_tics: int = 2,
+                 edge_steps: int | None = EDGE_STEPS):
         if pose_quantisation != "off":
             raise ConfigError(f"DoomSimulator: pose_quantisation must be 'off' (the engine quantises the pose "
                               f"itself), got {pose_quantisation!r}")
         if depth not in DEPTH_MODES:
             raise ConfigError(f"DoomSimulator: depth must be one of {list(DEPTH_MODES)}, got {depth!r}")
+        if edge_steps is not None and (isinstance(edge_steps, bool) or not isinstance(edge_steps, int) or edge_steps < 0):
+            raise ConfigError(f"DoomSimulator: edge_steps must be None or a whole number >= 0, got {edge_steps!r}")
         res = (160, 120) if intrinsics is None else (int(intrinsics.width), int(intrinsics.height))
         if res not in RESOLUTIONS:
             raise ConfigError(f"DoomSimulator: the engine renders {' or '.join(f'{w}x{h}' for w, h in RESOLUTIONS)}, "
@@ -84,6 +108,7 @@ class DoomSimulator(Simulator):
         self.engine = DoomEngine(level, res, seed=seed, camera_height=camera_height, settle_tics=settle_tics)
         self.resolution = res
         self.depth_mode = depth
+        self.edge_steps = edge_steps
         self.intrinsics = DOOM_INTRINSICS[res] if intrinsics is not None else None
         self.camera = None
         if self.intrinsics is not None and depth == "exact":
@@ -104,13 +129,16 @@ class DoomSimulator(Simulator):
             return None
         rgb8, buf = self.engine.buffers()
         rgb = rgb8.astype(np.float32) / np.float32(255.0)
-        depth, valid = buffer_to_metres(buf, self.resolution)
+        depth, valid = buffer_to_metres(buf, self.resolution, self.edge_steps)
         if self.depth_mode == "exact":
             exact = self.camera.render(self.pose)
             depth, valid = exact.depth, exact.valid
         if pixels is not None:
+            idx = np.asarray(pixels, dtype=np.int64).reshape(-1)
+            if idx.size and (idx.min() < 0 or idx.max() >= depth.size):
+                raise ValueError(f"pixel indices must lie in [0, {depth.size}), got {idx.min()}..{idx.max()}")
             keep = np.zeros(depth.size, bool)
-            keep[np.asarray(pixels, dtype=np.int64).reshape(-1)] = True
+            keep[idx] = True
             keep = keep.reshape(depth.shape)
             rgb = np.where(keep[..., None], rgb, np.float32(np.nan))
             depth = np.where(keep, depth, np.float32(np.nan))

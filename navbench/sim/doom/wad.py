@@ -207,13 +207,18 @@ def level_to_map(level: Level, light_level: int = LIGHT_LEVEL) -> DoomMap:
     pieces[swap] = pieces[swap][:, [2, 3, 0, 1]]
     front = np.where(swap, left, right)
     back = np.where(swap, right, left)
+    # vertices are written to 1e-3 units (10 micrometres): a piece shorter than that would be a
+    # zero-length line, which the engine's node builder must not see; dropping it joins its
+    # neighbours at one vertex
+    lines = np.round(pieces * s, 3)
+    keep = np.any(lines[:, :2] != lines[:, 2:], axis=1)
+    lines, front, back = lines[keep], front[keep], back[keep]
     # sectors: 0 the floor, then one per low prism that shows up in the map
     low = sorted({int(c) for c in np.concatenate([front, back]) if c > 0})
     sector_of = {0: 0, **{c: k + 1 for k, c in enumerate(low)}}
     height_u = int(round(level.height * s))
     sector_floor = np.array([0] + [int(round(heights[c - 1] * s)) for c in low], np.int64)
     sector_ceiling = np.full(len(sector_floor), height_u, np.int64)
-    lines = pieces * s
     start = _player_start(level)
     text = _textmap(level, lines, front, back, sector_of, low, sector_floor, height_u, textures,
                     polys, heights, start, light_level)
