@@ -71,7 +71,7 @@ def _point_segment_distance(pts, segs):
 @pytest.mark.parametrize("name", ["rooms", "house-1"])
 def test_level_round_trip_through_the_engine(name):
     level = contract._level(name)
-    with DoomEngine(level, (160, 120)) as eng:
+    with DoomEngine(level, (160, 120), sectors_info=True) as eng:
         sectors = eng.sectors()
     s = UNITS_PER_METRE
     # floors and ceilings: the floor, and one raised floor per low obstacle, all under the ceiling
@@ -268,6 +268,6 @@ def test_pieces_shorter_than_the_vertex_precision_are_dropped():
                        base.floor_texture, base.ceiling_texture)
     m = level_to_map(level)
     assert np.all(np.any(m.lines[:, :2] != m.lines[:, 2:], axis=1))
-    with DoomEngine(level, (160, 120)) as eng:
+    with DoomEngine(level, (160, 120), sectors_info=True) as eng:
         floors = sorted(round(sec.floor_height) for sec in eng.sectors())
     assert floors == [0, 30, 50]

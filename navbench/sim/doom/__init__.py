@@ -63,9 +63,9 @@ Depth buffer
     raises the share within one step from 99.76 % to 99.90 % (98.55 % to 98.85 %). No
     sprites: a converted map holds only the player start.
 Frames per second (house-1, ``reset(pose)`` with its frame converted, median of 7 x 200 on
-    the shared 2-core machine; ``docs/data/vizdoom/fps.txt``): 445 at 320 x 240 and 1918 at
-    160 x 120 under a load average of 8.4 (earlier runs under loads of 12 and 14, before the
-    discontinuity mask: 277 / 653 and 214 / 581; the machine's load moves these by 2x). The
-    engine is a process of its own. The pymunk Simulator's ``reset`` on the same poses, same
-    run: 92 and 339.
+    the shared 2-core machine; ``docs/data/vizdoom/fps.txt``): 631 at 320 x 240 and 3554 at
+    160 x 120 under a load average of 6.7 (the pymunk Simulator's ``reset`` on the same poses,
+    same run: 185 and 396). The machine's load moves these by 2x or more: earlier runs under
+    loads of 8 to 14, with the engine also copying its sectors every tic (now off unless
+    asked), gave 445 / 1918, 277 / 653 and 214 / 581. The engine is a process of its own.
 """

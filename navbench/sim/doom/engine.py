@@ -22,10 +22,11 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import weakref
 
 import numpy as np
 
-from navbench.errors import ConfigError
+from navbench.errors import ConfigError, TaskError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, Intrinsics
 from navbench.level import Level
 from navbench.sim.doom.wad import MAX_UNITS, UNITS_PER_METRE, level_to_map, read_wad, write_wad
@@ -62,6 +63,7 @@ def saturation_value(height: int) -> int:
     values above it), and invalid."""
     return int(255 * height / 480)
 
+
 _PLAYER_DECORATE = (b"actor NavbenchPlayer : DoomPlayer\n{\n"
                     b"  Player.ViewHeight %d\n  Radius %d\n}\n")
 _PLAYER_KEYCONF = b"clearplayerclasses\naddplayerclass NavbenchPlayer\n"
@@ -83,11 +85,12 @@ class DoomEngine:
     random table only drives things the backend does not use; set for reproducibility);
     ``settle_tics``: tics run per teleport before the frame is read (the warp's own tic renders
     with the eye 4 units above the floor; one more tic completes the frame, a third changes
-    nothing: measured, see the package docstring).
+    nothing: measured, see the package docstring); ``sectors_info``: have the engine report the
+    map's sectors and lines (:meth:`sectors`; off by default: it copies them every tic).
     """
 
     def __init__(self, level: Level, resolution=(320, 240), seed: int = 0,
-                 camera_height: float = CAMERA_HEIGHT, settle_tics: int = 2):
+                 camera_height: float = CAMERA_HEIGHT, settle_tics: int = 2, sectors_info: bool = False):
         vzd = _vizdoom()
         resolution = tuple(int(v) for v in resolution)
         if resolution not in RESOLUTIONS:
@@ -114,7 +117,8 @@ class DoomEngine:
         g.set_screen_resolution(getattr(vzd.ScreenResolution, RESOLUTIONS[resolution]))
         g.set_screen_format(vzd.ScreenFormat.RGB24)
         g.set_depth_buffer_enabled(True)
-        g.set_sectors_info_enabled(True)
+        g.set_sectors_info_enabled(bool(sectors_info))
+        self.sectors_info = bool(sectors_info)
         for setter in ("set_render_hud", "set_render_weapon", "set_render_crosshair", "set_render_decals",
                        "set_render_particles", "set_render_effects_sprites", "set_render_messages",
                        "set_render_corpses", "set_render_screen_flashes"):
@@ -130,6 +134,9 @@ class DoomEngine:
         g.set_seed(int(seed))
         g.init()
         self.game = g
+        # stop the engine before the temporary directory goes (at interpreter exit, finalizers
+        # run newest first): the engine writes its ini there when it stops
+        self._finalizer = weakref.finalize(self, g.close)
         self._vzd = vzd
         g.set_action([0.0])
         g.advance_action(WARMUP_TICS, True)  # the engine ignores input in its first tics
@@ -153,7 +160,7 @@ class DoomEngine:
         x, y, th = (float(v) for v in pose)
         ix, iy = int(round(x * UNITS_PER_METRE)), int(round(y * UNITS_PER_METRE))
         if not (0 <= ix <= MAX_UNITS and 0 <= iy <= MAX_UNITS):
-            raise ConfigError(f"the Doom backend cannot warp to ({x:g}, {y:g}) m: outside [0, {MAX_UNITS / UNITS_PER_METRE:g}] m")
+            raise TaskError(f"the Doom backend cannot warp to ({x:g}, {y:g}) m: outside [0, {MAX_UNITS / UNITS_PER_METRE:g}] m")
         # the turn in whole engine angle units (1/65536 turn): the engine turns clockwise by
         # floor(delta * 65536 / 360) units (measured), so a quarter unit above the whole
         # number of clockwise units lands on it whatever the rounding of the double
@@ -163,7 +170,7 @@ class DoomEngine:
         delta = (-ccw + 0.25) * 360.0 / ANGLE_UNITS
         self.game.send_game_command(f"warp {ix} {iy}")
         self.game.set_action([delta])
-        self.game.advance_action(1, True)
+        self.game.advance_action(1, self.settle_tics == 1)  # its state only when it is the last
         self.game.set_action([0.0])
         if self.settle_tics > 1:
             self.game.advance_action(self.settle_tics - 1, True)
@@ -177,13 +184,16 @@ class DoomEngine:
 
     def sectors(self):
         """The engine's sectors of the loaded map (``set_sectors_info_enabled``): each with
-        ``floor_height``, ``ceiling_height`` and ``lines`` (``x1, y1, x2, y2, is_blocking``)."""
+        ``floor_height``, ``ceiling_height`` and ``lines`` (``x1, y1, x2, y2, is_blocking``).
+        Needs ``sectors_info=True``."""
+        if not self.sectors_info:
+            raise ConfigError("DoomEngine.sectors() needs an engine started with sectors_info=True")
         return self._state.sectors
 
     def close(self) -> None:
         """Stop the engine and remove the WAD."""
         if getattr(self, "game", None) is not None:
-            self.game.close()
+            self._finalizer()
             self.game = None
         if getattr(self, "_dir", None) is not None:
             self._dir.cleanup()
