@@ -90,6 +90,17 @@ def settle(res=(320, 240)):
     print(f"camera z in the warp's tic: {sorted(set(camz))} units; one tic later {camz2}")
     print(f"frames differing: warp tic vs +1 tic {diff1}/{len(pts) - 1}, +1 vs +2 tics {diff2}/{len(pts) - 1}")
     e.close()
+    # the backend's path (settle_tics=2: the warp's tic without a state update) against 3 tics
+    a, b = DoomEngine(lv, res, settle_tics=2), DoomEngine(lv, res, settle_tics=3)
+    same = 0
+    for p in pts:
+        pose = (*p, rng.uniform(-math.pi, math.pi))
+        a.set_pose(pose)
+        b.set_pose(pose)
+        same += int(all(np.array_equal(x, y) for x, y in zip(a.buffers(), b.buffers())) and a.variables()[3] == 50)
+    print(f"set_pose with settle_tics 2 vs 3: identical frames (rgb and depth, eye at 50) {same}/{len(pts)}")
+    a.close()
+    b.close()
 
 
 def _edges(mask_1d):

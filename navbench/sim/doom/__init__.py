@@ -34,7 +34,7 @@ A frame right after a warp
     is not complete: in the warp's own tic the eye is 4 units above the floor
     (``CAMERA_POSITION_Z`` 4, every one of 59 frames differs from the next tic's); one tic later
     it is at 50 and a third tic changes nothing (0 of 59 frames differ). So a teleport runs 2
-    tics (``settle_tics``).
+    tics (``settle_tics``); ``set_pose`` with 2 gives the frames of 3 (60 of 60 poses).
 Projection
     Doom's horizontal field of view is 90 deg: ``fx = W / 2``; its pixels are not square:
     ``fy`` is about 1.19 ``fx`` (Doom's 320 x 200 shown at 4:3 would be 1.2). Calibrated against
