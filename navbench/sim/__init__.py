@@ -7,4 +7,6 @@ Modules (import them directly; this package imports nothing heavy):
 * :mod:`navbench.sim.world` -- :class:`CollisionWorld` (pymunk) and the :class:`Simulator`.
 * :mod:`navbench.sim.env` -- the gymnasium :class:`PointNavEnv`.
 * :mod:`navbench.sim.bench` -- plain timing functions for ``navbench bench``.
+* :mod:`navbench.sim.doom` -- the ViZDoom backend (levels as Doom maps, :class:`DoomSimulator`;
+  needs the optional ``vizdoom`` extra).
 """

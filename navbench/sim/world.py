@@ -175,9 +175,7 @@ class Simulator:
         if seed is not None:
             self.seed = seed
             self.rng = np.random.default_rng(seed)
-        self.pose = np.array([p[0], p[1], float(wrap_angle(p[2]))])
-        if self.pose_quantisation != "off":
-            self.pose = quantise_pose(self.pose, self.pose_quantisation)
+        self.pose = self._realise(np.array([p[0], p[1], float(wrap_angle(p[2]))]))
         self.collided = False
         self.collision_step = -1
         self.steps = 0
@@ -201,14 +199,24 @@ class Simulator:
             else:
                 xy, hit = self.world.sweep(self.pose[:2], nxt[:2])
             self.pose = np.array([xy[0], xy[1], nxt[2]])
-            if self.pose_quantisation != "off":
-                self.pose = quantise_pose(self.pose, self.pose_quantisation)
+            realised = self._realise(self.pose)
+            if realised is not self.pose:  # quantised: a disc overlapping a solid there collides
+                self.pose = realised
                 hit = hit or self._overlaps(self.pose[:2])
             if hit:
                 self.collided = True
                 self.collision_step = self.steps
         self.steps += 1
         return StepResult(self.pose.copy(), self.collided, self.observe(pixels), eps)
+
+    def _realise(self, pose: np.ndarray) -> np.ndarray:
+        """The pose the world takes when the agent is put at ``pose (3,)``: ``pose`` itself (the
+        same object) or, under ``pose_quantisation``, a new quantised array. A backend whose
+        engine places the agent its own way (:class:`navbench.sim.doom.simulator.DoomSimulator`)
+        overrides this and returns the pose its engine shows."""
+        if self.pose_quantisation != "off":
+            return quantise_pose(pose, self.pose_quantisation)
+        return pose
 
     def _overlaps(self, xy) -> bool:
         """Whether the agent's disc at ``xy`` overlaps a solid or the level's boundary (or lies
