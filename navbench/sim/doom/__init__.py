@@ -18,7 +18,7 @@ navbench's camera height (50 units = 0.5 m; read back as ``CAMERA_POSITION_Z``) 
 radius (10 units = 0.1 m). Collisions are navbench's; the radius only keeps the engine from
 lifting the player onto a neighbouring raised floor.
 
-Measured with vizdoom 1.3.2 (``scripts/doom_calibrate.py``; ``docs/notebook/vizdoom.md``,
+Measured with vizdoom 1.3.2 (``docs/data/vizdoom/doom_calibrate.py``; ``docs/notebook/vizdoom.md``,
 2026-11-27):
 
 Pose quantisation

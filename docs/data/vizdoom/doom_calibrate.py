@@ -1,6 +1,6 @@
 """Measure the ViZDoom backend (issue 37 §2): pose quantisation, frames after a warp, the camera
 projection, the depth buffer, frames per second. Prints the figures docs/notebook/vizdoom.md
-records; ``python scripts/doom_calibrate.py [quant|settle|projection|projection_scan|depth|fps ...]``.
+records; ``python docs/data/vizdoom/doom_calibrate.py [quant|settle|projection|projection_scan|depth|fps ...]``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from navbench.geometry import Intrinsics  # noqa: E402
