@@ -36,7 +36,7 @@ def compare(
                                show_default=False),
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     interval: Interval = typer.Option(Interval.bca, "--interval", help="Bootstrap interval: bca (as score) or "
-                                      "percentile (as scripts/paired_runs.py printed, the README's Table 4)."),
+                                      "percentile (the interval of the paired_runs script compare replaced: the README's Table 4)."),
     boot: int = typer.Option(None, "--boot", min=1, max=100_000, help="Bootstrap resamples [default: 2000 "
                              "for bca, 4000 for percentile].", show_default=False),
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
