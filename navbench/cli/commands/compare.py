@@ -7,7 +7,7 @@ from enum import Enum
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP
+from navbench.cli._help import DB_HELP, default
 
 
 class Format(str, Enum):
@@ -25,20 +25,20 @@ class Interval(str, Enum):
 def compare(
     pair: list[str] = typer.Option(None, "--pair", metavar="A:B", help="Two estimators to compare, B - A "
                                    "(repeatable): ours-every-k:ours. With --b or --b-db: estimator A of "
-                                   "side A against estimator B of side B (default: each estimator with itself)."),
+                                   "side A against estimator B of side B " + default("each estimator with itself") + "."),
     a: str = typer.Option(None, "--a", metavar="RUNS", help="Side A: run ids (35,54), 'latest' or 'all' "
-                          "[default: all] of --db."),
+                          "of --db " + default("all") + "."),
     b: str = typer.Option(None, "--b", metavar="RUNS", help="Side B: run ids, 'latest' or 'all' of --b-db "
                           "(else --db). Without --b and --b-db both estimators of --pair come from side A."),
-    b_db: str = typer.Option(None, "--b-db", metavar="URL", help="Database of side B [default: --db]."),
+    b_db: str = typer.Option(None, "--b-db", metavar="URL", help="Database of side B " + default("--db") + "."),
     preset: str = typer.Option(None, "--preset", help="Scoring preset of both sides: paper, nrns or habitat "
                                "[default: paper; nrns when every episode is an unknown-house one].",
                                show_default=False),
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     interval: Interval = typer.Option(Interval.bca, "--interval", help="Bootstrap interval: bca (as score) or "
                                       "percentile (the interval of the paired_runs script compare replaced: the README's Table 4)."),
-    boot: int = typer.Option(None, "--boot", min=1, max=100_000, help="Bootstrap resamples [default: 2000 "
-                             "for bca, 4000 for percentile].", show_default=False),
+    boot: int = typer.Option(None, "--boot", min=1, max=100_000, help="Bootstrap resamples "
+                             + default("2000 for bca, 4000 for percentile") + ".", show_default=False),
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB", help=DB_HELP + " Side A's database."),
@@ -51,11 +51,9 @@ def compare(
     SoftSPL and location RMSE with 95% bootstrap intervals stratified by level; for success also
     the discordant pairs (only A / only B succeeded) and the exact McNemar p.
 
-    \b
-    navbench compare --pair no-map:ours --pair ours-every-k:ours
-    navbench compare --a 35,54 --b 95                    # two sets of runs, estimator by estimator
-    navbench compare --a 1 --b-db sqlite:///other.db --pair ours:gt
-    navbench compare --a 1,7 --b 2,8 --preset nrns --format markdown
+    Examples: --pair no-map:ours --pair ours-every-k:ours (two estimators of every stored
+    episode); --a 35,54 --b 95 (two sets of runs, estimator by estimator); --a 1 --b-db
+    sqlite:///other.db --pair ours:gt (two databases). Tutorial: docs/tutorials/compare.md.
     """
     import sys
 
