@@ -31,8 +31,8 @@ def compare(
     b: str = typer.Option(None, "--b", metavar="RUNS", help="Side B: run ids, 'latest' or 'all' of --b-db "
                           "(else --db). Without --b and --b-db both estimators of --pair come from side A."),
     b_db: str = typer.Option(None, "--b-db", metavar="URL", help="Database of side B " + default("--db") + "."),
-    preset: str = typer.Option(None, "--preset", help="Scoring preset of both sides: paper, nrns or habitat "
-                               "[default: paper; nrns when every episode is an unknown-house one].",
+    preset: str = typer.Option(None, "--preset", help="Scoring preset of both sides: paper, nrns or habitat. "
+                               "Default: paper; nrns when every episode is an unknown-house one.",
                                show_default=False),
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     interval: Interval = typer.Option(Interval.bca, "--interval", help="Bootstrap interval: bca (as score) or "
