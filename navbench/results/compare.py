@@ -111,9 +111,7 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
 
     from navbench.nav.presets import get_preset
     from navbench.pipeline.db import ResultsDB
-    from navbench.pipeline.score import (ESTIMATOR_ORDER, NOISE_ORDER, _conditions_of, _conditions_order,
-                                         _order_key, estimator_variants)
-    from navbench.pipeline.score_presets import apply_preset, default_preset, missing_distances
+    from navbench.pipeline.score_presets import default_preset, missing_distances
     from navbench.results.paired import DEFAULT_BOOT, METHODS, method_label, paired_table
 
     if method not in METHODS:
@@ -147,17 +145,12 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
         warnings.append(f"{missing} episode(s) were stored without their final distance (before scoring "
                         f"presets); under preset {preset!r} they count as failures")
 
-    def prepared(frame):
-        f = apply_preset(frame, preset)
-        return f.assign(variant=estimator_variants(f), success=f["success"].astype(float),
-                        conditions=_conditions_of(f))
-
-    fa = prepared(fa)
-    fb = prepared(fb) if two_sides else fa
-    order = lambda v: (_order_key(v.split("{")[0], ESTIMATOR_ORDER), v)  # noqa: E731
-    va = sorted(fa["variant"].unique(), key=order)
-    vb = sorted(fb["variant"].unique(), key=order)
-    if two_sides:
+    fa = _prepared(fa, preset)
+    if not two_sides:
+        table = estimator_pairs(fa, pairs, method=method, n_boot=n_boot, seed=seed, where=side_a)
+    else:
+        fb = _prepared(fb, preset)
+        va, vb = _variants(fa), _variants(fb)
         keys = SIDE_KEYS
         if not pairs:
             pairs = [(v, v) for v in va if v in vb]
@@ -171,27 +164,65 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
                                 "with another setup of the same side; the last stored kept")
         fa = fa.sort_values("id").drop_duplicates(["variant"] + keys, keep="last")
         fb = fb.sort_values("id").drop_duplicates(["variant"] + keys, keep="last")
-    else:
-        keys = ESTIMATOR_KEYS
-        fa = fb = fa.drop_duplicates(["variant"] + keys)
-    resolved = resolve_pairs(pairs, va, vb, f"side A ({side_a})" if two_sides else side_a,
-                             f"side B ({side_b})" if two_sides else side_b, same=not two_sides)
-    table = paired_table(fa, fb, resolved, keys, by_conditions=not two_sides, method=method,
-                         n_boot=n_boot, seed=seed)
-    if two_sides:  # the same estimator on both sides: say which side each is
+        resolved = resolve_pairs(pairs, va, vb, f"side A ({side_a})", f"side B ({side_b})")
+        table = paired_table(fa, fb, resolved, keys, by_conditions=False, method=method, n_boot=n_boot, seed=seed)
+        # the same estimator on both sides: say which side each is
         table["comparison"] = [f"{y} (B) - {x} (A)" for x, y in zip(table["estimator_a"], table["estimator_b"])]
-    for pa, pb in resolved:
-        rows = table[(table["estimator_a"] == pa) & (table["estimator_b"] == pb) & (table["level"] == "all")]
+        table = _sorted(table, resolved, preset)
+    for (pa, pb), rows in table[table["level"] == "all"].groupby(["estimator_a", "estimator_b"], sort=False):
         if int(rows["pairs"].sum()) == 0:
             warnings.append(f"{pb} - {pa}: no episode pairs (no common level, noise, task and seed)")
+    n = DEFAULT_BOOT[method] if n_boot is None else int(n_boot)
+    return Comparison(table=table, preset=preset, interval=method_label(method, n, seed),
+                      side_a=side_a, side_b=side_b, warnings=warnings)
+
+
+def _prepared(frame: "pandas.DataFrame", preset: str) -> "pandas.DataFrame":
+    """Episodes scored under ``preset`` with the columns :func:`paired_table` reads."""
+    from navbench.pipeline.score import _conditions_of, estimator_variants, with_identities
+    from navbench.pipeline.score_presets import apply_preset
+
+    f = frame if frame.attrs.get("preset") == preset else apply_preset(frame, preset)
+    if "pair_condition" not in f.columns:
+        f = with_identities(f)
+    return f.assign(variant=estimator_variants(f), success=f["success"].astype(float), conditions=_conditions_of(f))
+
+
+def _variants(frame: "pandas.DataFrame") -> list[str]:
+    from navbench.pipeline.score import ESTIMATOR_ORDER, _order_key
+
+    return sorted(frame["variant"].unique(), key=lambda v: (_order_key(v.split("{")[0], ESTIMATOR_ORDER), v))
+
+
+def _sorted(table: "pandas.DataFrame", resolved: list, preset: str) -> "pandas.DataFrame":
+    """Rows by pair (as named), level (pooled last), conditions (defaults first), noise; a
+    ``preset`` column first."""
+    from navbench.pipeline.score import NOISE_ORDER, _conditions_order, _order_key
+
     rank = {p: i for i, p in enumerate(resolved)}
     key = [(rank[(r.estimator_a, r.estimator_b)], r.level == "all", r.level, _conditions_order(r.conditions),
             _order_key(r.noise, NOISE_ORDER)) for r in table.itertuples()]
     table = table.iloc[sorted(range(len(table)), key=lambda i: key[i])].reset_index(drop=True)
     table.insert(0, "preset", preset)
-    n = DEFAULT_BOOT[method] if n_boot is None else int(n_boot)
-    return Comparison(table=table, preset=preset, interval=method_label(method, n, seed),
-                      side_a=side_a, side_b=side_b, warnings=warnings)
+    return table
+
+
+def estimator_pairs(episodes: "pandas.DataFrame", pairs, method: str = "bca", n_boot: int | None = None,
+                    seed: int = 0, where: str = "the selection") -> "pandas.DataFrame":
+    """B - A for the named estimator ``pairs`` (``(A, B)`` or ``"A:B"``) of one episodes frame
+    (:func:`navbench.pipeline.score.select_episodes`, scored under a preset or, unscored,
+    under ``paper``): episodes pair on the same level, map, noise, conditions, task and seed.
+    An estimator the frame does not hold is a :class:`ConfigError` naming ``where``."""
+    from navbench.results.paired import paired_table
+
+    preset = episodes.attrs.get("preset") or "paper"
+    f = _prepared(episodes, preset)
+    pairs = [parse_pair(p) if isinstance(p, str) else tuple(p) for p in pairs]
+    variants = _variants(f)
+    resolved = resolve_pairs(pairs, variants, variants, where, where, same=True)
+    f = f.drop_duplicates(["variant"] + ESTIMATOR_KEYS)
+    table = paired_table(f, f, resolved, ESTIMATOR_KEYS, by_conditions=True, method=method, n_boot=n_boot, seed=seed)
+    return _sorted(table, resolved, preset)
 
 
 # --- formatting (CLI and report) ---------------------------------------------------------------
@@ -231,17 +262,17 @@ def display_rows(table: "pandas.DataFrame", conditions: bool = False, part: str 
         levels = t[t["level"] != "all"].groupby("comparison")["level"].nunique()
         t = t[(t["level"] != "all") | t["comparison"].map(lambda c: levels.get(c, 0) != 1)]
     key = ["B - A", "level", "noise"] + (["conditions"] if conditions else [])
-    succ = ["pairs", "unpaired A / B", "SR A / B", "SR B - A [95 %]", "only A / B", "McNemar p"]
+    succ = ["pairs (unpaired A / B)", "SR A / B", "SR B - A [95 %]", "only A / B (McNemar p)"]
     path = ["SPL A / B", "SPL B - A [95 %]", "SoftSPL B - A [95 %]", "loc RMSE m B - A [95 %]"]
     head = key + (succ if part in (None, "success") else []) + (path if part in (None, "path") else [])
     rows = []
     for r in t.itertuples():
         cells = [str(r.comparison), str(r.level), str(r.noise)] + ([str(r.conditions)] if conditions else [])
         if part in (None, "success"):
-            cells += [str(r.pairs), f"{r.unpaired_a} / {r.unpaired_b}",
+            cells += [f"{r.pairs} ({r.unpaired_a} / {r.unpaired_b})",
                       f"{_fmt(r.success_a)} / {_fmt(r.success_b)}",
                       fmt_diff(r.success_diff, r.success_diff_ci_low, r.success_diff_ci_high),
-                      f"{r.only_a} / {r.only_b}", fmt_p(r.mcnemar_p)]
+                      f"{r.only_a} / {r.only_b} (p {fmt_p(r.mcnemar_p)})"]
         if part in (None, "path"):
             cells += [f"{_fmt(r.spl_a)} / {_fmt(r.spl_b)}",
                       fmt_diff(r.spl_diff, r.spl_diff_ci_low, r.spl_diff_ci_high),

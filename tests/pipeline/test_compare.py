@@ -171,7 +171,7 @@ def test_cli_formats(two_estimators):
     rows = list(csv.DictReader(io.StringIO(runner.invoke(app, base + ["--format", "csv"]).stdout)))
     assert float(rows[0]["spl_diff"]) == pytest.approx(0.2) and rows[0]["estimator_a"] == "ours-every-k"
     md = runner.invoke(app, base + ["--format", "markdown"]).stdout
-    assert "| ours - ours-every-k | l1 | mid | 2 | 0 / 1 |" in md
+    assert "| ours - ours-every-k | l1 | mid | 2 (0 / 1) | 1.000 / 1.000 |" in md
     table = runner.invoke(app, base).stdout
     assert "ours - ours-every-k  (B - A)" in table and "+0.200" in table
     assert not [ln for ln in table.splitlines() if ln.split()[:1] == ["all"]]  # one level: no pooled rows
