@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # pragma: no cover
     import pandas
 
-#: Significant figures of a column's largest value; the column's other values get its decimals.
+#: Significant figures of a column's largest value (:func:`decimals`); its other values get its decimals.
 SIG = 3
 
 #: Column name -> the label the page shows (units in brackets).
@@ -38,12 +38,16 @@ def plural(n: int, word: str, many: str | None = None) -> str:
 
 
 def decimals(values, sig: int = SIG) -> int:
-    """Decimals that show the largest finite ``|value|`` at ``sig`` significant figures, fewer
-    where every value is already that round (``0.3``, ``500``); 0..6."""
+    """Decimals for a column of numbers: the largest finite ``|value|`` at ``sig`` significant
+    figures and the smallest non-zero one at two at least (``31.0`` and ``0.012`` give 3), at most
+    4; fewer where every value is already that round (``0.3``, ``500``)."""
     finite = [abs(float(v)) for v in values if v is not None and math.isfinite(float(v))]
-    if not finite or max(finite) == 0:
+    nonzero = [v for v in finite if v > 0]
+    if not nonzero:
         return 0
-    d = max(0, min(6, sig - 1 - math.floor(math.log10(max(finite)))))
+    big = sig - 1 - math.floor(math.log10(max(nonzero)))
+    small = 1 - math.floor(math.log10(min(nonzero)))
+    d = max(0, min(4, max(big, small)))
     for k in range(d):
         if all(abs(v - round(v, k)) < 1e-9 * max(1.0, v) for v in finite):
             return k

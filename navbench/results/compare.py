@@ -246,6 +246,18 @@ def _fmt(v, digits: int = 3) -> str:
     return "-" if v != v else f"{v:.{digits}f}"
 
 
+def short_label(label: str) -> str:
+    """A conditions label with the conditions at their defaults left out
+    (:func:`navbench.pipeline.score.short_conditions`), also inside ``"A: ...; B: ..."`` and
+    ``" | "``-joined labels of two selections."""
+    import re
+
+    from navbench.pipeline.score import short_conditions
+
+    parts = re.split(r"(^A: |; B: | \| )", str(label))
+    return "".join(p if p in ("A: ", "; B: ", " | ") or not p else short_conditions(p) for p in parts)
+
+
 #: The column groups of :func:`display_rows`: success, then the path and tracking metrics.
 PARTS = ("success", "path")
 
@@ -267,7 +279,7 @@ def display_rows(table: "pandas.DataFrame", conditions: bool = False, part: str 
     head = key + (succ if part in (None, "success") else []) + (path if part in (None, "path") else [])
     rows = []
     for r in t.itertuples():
-        cells = [str(r.comparison), str(r.level), str(r.noise)] + ([str(r.conditions)] if conditions else [])
+        cells = [str(r.comparison), str(r.level), str(r.noise)] + ([short_label(r.conditions)] if conditions else [])
         if part in (None, "success"):
             cells += [f"{r.pairs} ({r.unpaired_a} / {r.unpaired_b})",
                       f"{_fmt(r.success_a)} / {_fmt(r.success_b)}",
@@ -283,36 +295,42 @@ def display_rows(table: "pandas.DataFrame", conditions: bool = False, part: str 
 
 
 def record_rows(table: "pandas.DataFrame", conditions: bool = False) -> list[tuple[str, list[list[str]]]]:
-    """The comparison as one block per comparison, six rows per (level, noise[, conditions]):
-    pairs (unpaired A / B), SR, its discordant counts and McNemar's p, SPL, SoftSPL and location
-    RMSE with A, B and B - A [95 %]: a layout that fits 80 columns. A comparison's pooled rows
-    are left out when it covers one level (they repeat it). Returns ``[(comparison, rows)]``,
-    rows of ``[level, noise, (conditions,) what, A, B, B - A]``."""
+    """The comparison as one block per comparison (and, with ``conditions``, per conditions
+    label, named in the block's title), six rows per (level, noise): pairs (unpaired A / B), SR,
+    its discordant counts and McNemar's p, SPL, SoftSPL and location RMSE with A, B and B - A
+    [95 %]: a layout that fits 80 columns. A block's pooled rows are left out when it covers one
+    level (they repeat it); a row of no pairs shows its counts alone. Returns ``[(title, rows)]``,
+    rows of ``[level, noise, what, A, B, B - A]``."""
     blocks: list[tuple[str, list[list[str]]]] = []
     if table.empty:
         return blocks
-    for comp, t in table.groupby("comparison", sort=False):
+    keys = ["comparison", "conditions"] if conditions else ["comparison"]
+    for key, t in table.groupby(keys, sort=False):
+        key = key if isinstance(key, tuple) else (key,)
+        title = str(key[0]) + (f"; conditions: {short_label(key[1])}" if conditions else "")
         if t.loc[t["level"] != "all", "level"].nunique() == 1:
             t = t[t["level"] != "all"]
         rows = []
         for r in t.itertuples():
-            where = [str(r.level), str(r.noise)] + ([str(r.conditions)] if conditions else [])
-            blank = [""] * len(where)
+            where = [str(r.level), str(r.noise)]
+            if not r.pairs:  # nothing to compare: the counts alone
+                rows.append(where + ["pairs (unpaired A/B)", "", "", f"0 ({r.unpaired_a} / {r.unpaired_b})"])
+                continue
 
             def n(k):
                 return "" if k == r.pairs else f" ({k} pairs)"
             rows += [where + ["pairs (unpaired A/B)", "", "", f"{r.pairs} ({r.unpaired_a} / {r.unpaired_b})"],
-                     blank + ["SR", _fmt(r.success_a), _fmt(r.success_b),
-                              fmt_diff(r.success_diff, r.success_diff_ci_low, r.success_diff_ci_high)],
-                     blank + ["  only A / only B", "", "",
-                              f"{r.only_a} / {r.only_b}, McNemar p {fmt_p(r.mcnemar_p)}"],
-                     blank + ["SPL", _fmt(r.spl_a), _fmt(r.spl_b),
-                              fmt_diff(r.spl_diff, r.spl_diff_ci_low, r.spl_diff_ci_high)],
-                     blank + ["SoftSPL" + n(r.soft_spl_pairs), _fmt(r.soft_spl_a), _fmt(r.soft_spl_b),
-                              fmt_diff(r.soft_spl_diff, r.soft_spl_diff_ci_low, r.soft_spl_diff_ci_high)],
-                     blank + ["loc RMSE m" + n(r.loc_rmse_pairs), _fmt(r.loc_rmse_a), _fmt(r.loc_rmse_b),
-                              fmt_diff(r.loc_rmse_diff, r.loc_rmse_diff_ci_low, r.loc_rmse_diff_ci_high)]]
-        blocks.append((str(comp), rows))
+                     ["", "", "SR", _fmt(r.success_a), _fmt(r.success_b),
+                      fmt_diff(r.success_diff, r.success_diff_ci_low, r.success_diff_ci_high)],
+                     ["", "", "  only A / only B", "", "",
+                      f"{r.only_a} / {r.only_b}, McNemar p {fmt_p(r.mcnemar_p)}"],
+                     ["", "", "SPL", _fmt(r.spl_a), _fmt(r.spl_b),
+                      fmt_diff(r.spl_diff, r.spl_diff_ci_low, r.spl_diff_ci_high)],
+                     ["", "", "SoftSPL" + n(r.soft_spl_pairs), _fmt(r.soft_spl_a), _fmt(r.soft_spl_b),
+                      fmt_diff(r.soft_spl_diff, r.soft_spl_diff_ci_low, r.soft_spl_diff_ci_high)],
+                     ["", "", "loc RMSE m" + n(r.loc_rmse_pairs), _fmt(r.loc_rmse_a), _fmt(r.loc_rmse_b),
+                      fmt_diff(r.loc_rmse_diff, r.loc_rmse_diff_ci_low, r.loc_rmse_diff_ci_high)]]
+        blocks.append((title, rows))
     return blocks
 
 

@@ -153,3 +153,19 @@ def test_report_unknown_pair_is_one_line_and_writes_nothing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert e.value.code == 2 and "no estimator 'nope'" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "rep").exists()
+
+
+def test_decimals_and_plurals_by_hand():
+    from navbench.report.display import decimals, plural, shown
+
+    assert decimals([31.0, 4.2]) == 1  # 3 significant figures of 31.0
+    assert decimals([31.0, 0.0123]) == 3  # and 2 of the smallest non-zero value
+    assert decimals([0.0295, 0.0508]) == 4
+    assert decimals([20.0, 0.1]) == 1 and decimals([500.0, 12.0]) == 0  # already round: no trailing zeros
+    assert decimals([0.0, float("nan")]) == 0
+    assert (plural(0, "run"), plural(1, "run"), plural(2, "entry", "entries")) == ("0 runs", "1 run", "2 entries")
+    import pandas as pd
+
+    page = shown(pd.DataFrame({"loc_rmse_median_m": [0.06026, 0.1], "steps": [3, 4]}))
+    assert list(page.columns) == ["median location RMSE (m)", "steps"]
+    assert list(page.iloc[:, 0]) == ["0.060", "0.100"]  # 3 figures of 0.1, 2 of 0.06026: 3 decimals and list(page["steps"]) == [3, 4]

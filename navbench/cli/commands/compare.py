@@ -89,19 +89,29 @@ def compare(
 
     several = t["conditions"].nunique() > 1
     console.print(escape(header))
-    if not several:
+    if t.empty:
+        return
+    if several:
+        console.print("conditions: those not at their default (defaults: "
+                      + escape(_default_conditions()) + ")")
+    else:
         console.print(escape(f"conditions: {t['conditions'].iloc[0]}"))
-    for comp, rows in record_rows(t, conditions=several):
-        out = Table(title=escape(f"{comp}  (B - A)"), box=box.SIMPLE_HEAD, title_justify="left",
+    for title, rows in record_rows(t, conditions=several):
+        out = Table(title=escape(f"{title}  (B - A)"), box=box.SIMPLE_HEAD, title_justify="left",
                     pad_edge=False, collapse_padding=True)
-        for h in ["level", "noise"] + (["conditions"] if several else []) + ["", "A", "B", "B - A [95 %]"]:
-            out.add_column(h, justify="right" if h in ("A", "B", "B - A [95 %]") else "left",
-                           no_wrap=h != "conditions")
+        for h in ("level", "noise", "", "A", "B", "B - A [95 %]"):
+            out.add_column(h, justify="right" if h in ("A", "B", "B - A [95 %]") else "left", no_wrap=True)
         for i, cells in enumerate(rows):
             if i and cells[0]:
                 out.add_section()
             out.add_row(*(escape(c) for c in cells))
         console.print(out)
+
+
+def _default_conditions() -> str:
+    from navbench.pipeline.score import conditions_label
+
+    return conditions_label({})
 
 
 def register(app: typer.Typer) -> None:
