@@ -138,7 +138,7 @@ def section_compare(page: Any, episodes: "pandas.DataFrame", pairs, n_boot: int,
     preset = t["preset"].iloc[0] if len(t) else "paper"
     page.csv(t, "comparisons")
     for part, what in (("success", "success rate (SR)"), ("path", "SPL, SoftSPL and location RMSE")):
-        head, rows = display_rows(t, conditions=several, part=part)
+        head, rows = display_rows(t, conditions=several, part=part, repeat_pooled=False)
         rows = [[c if j < 3 else c.replace(" ", NBSP) for j, c in enumerate(r)] for r in rows]  # numbers stay whole
         _figure_table(page, pd.DataFrame(rows, columns=head),
                       f"B − A per comparison, level and noise: {what}; scoring preset '{preset}'", "comparisons.csv")

@@ -263,14 +263,14 @@ PARTS = ("success", "path")
 
 
 def display_rows(table: "pandas.DataFrame", conditions: bool = False, part: str | None = None,
-                 single_level: bool = True) -> tuple[list[str], list[list[str]]]:
+                 repeat_pooled: bool = True) -> tuple[list[str], list[list[str]]]:
     """Headers and string cells of a :func:`compare` table: one row per (comparison, level,
     noise[, conditions]); differences B - A with their interval. ``part``: only the success
     columns (``"success"``) or only SPL, SoftSPL and RMSE (``"path"``); ``None``: all.
-    ``single_level=False`` leaves out a comparison's pooled rows when it covers one level (they
+    ``repeat_pooled=False`` leaves out a comparison's pooled rows when it covers one level (they
     repeat that level's rows)."""
     t = table
-    if not single_level and not t.empty:
+    if not repeat_pooled and not t.empty:
         levels = t[t["level"] != "all"].groupby("comparison")["level"].nunique()
         t = t[(t["level"] != "all") | t["comparison"].map(lambda c: levels.get(c, 0) != 1)]
     key = ["B - A", "level", "noise"] + (["conditions"] if conditions else [])
@@ -337,7 +337,7 @@ def record_rows(table: "pandas.DataFrame", conditions: bool = False) -> list[tup
 def markdown(table: "pandas.DataFrame") -> str:
     """The comparison as one GitHub-flavoured markdown table (``|`` in names escaped)."""
     several = table["conditions"].nunique() > 1 if not table.empty else False
-    head, rows = display_rows(table, conditions=several)
+    head, rows = display_rows(table, conditions=several, repeat_pooled=False)
     esc = lambda s: s.replace("|", "\\|")  # noqa: E731
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     lines += ["| " + " | ".join(esc(c) for c in row) + " |" for row in rows]
