@@ -127,7 +127,11 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
     with ResultsDB(db, create=False) as rdb:
         fa, side_a = _side(rdb, a, level, "--a")
         if b_db is not None:
-            with ResultsDB(b_db, create=False) as rdb_b:
+            try:
+                rdb_b = ResultsDB(b_db, create=False)
+            except DatabaseError as e:  # it suggests --db: the option here is --b-db
+                raise DatabaseError(f"--b-db: {str(e).split('; run `navbench all`')[0]}") from None
+            with rdb_b:
                 fb, side_b = _side(rdb_b, b, level, "--b")
         elif two_sides:
             fb, side_b = _side(rdb, b, level, "--b")

@@ -184,6 +184,7 @@ def test_cli_formats(two_estimators):
     (["--pair", "ours:ours"], "with itself"),
     (["--pair", "ours-every-k:ours", "--a", "7"], "--a: no run with id 7"),
     (["--pair", "ours-every-k:ours", "--preset", "nrnss"], "unknown scoring preset 'nrnss'"),
+    (["--a", "1", "--b-db", "sqlite:////nonexistent/dir/b.db"], "--b-db: no results database at /nonexistent/dir/b.db"),
     ([], "name what to compare"),
 ])
 def test_cli_errors_are_one_line(two_estimators, args, message, capsys):
