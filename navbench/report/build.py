@@ -42,6 +42,7 @@ from navbench.results.score import (
     spl_matrix,
     summarise,
 )
+from navbench.report.leaderboard import section_compare, section_leaderboard
 
 if TYPE_CHECKING:  # pragma: no cover
     from collections.abc import Collection
@@ -75,20 +76,29 @@ class _Page:
         self.p(text, "note")
 
     def table(self, frame: "pandas.DataFrame", name: str, caption: str, index: bool = False,
-              digits: int = 4, display: "pandas.DataFrame | None" = None) -> None:
-        """Write ``<name>.csv`` and show the table (or ``display``, a compact view of it)."""
-        path = self.out_dir / f"{name}.csv"
-        frame.to_csv(path, index=index, float_format=f"%.{max(digits, 6)}g")
-        self.csvs.append(path.name)
-        shown = (frame if display is None else display).copy()
+              digits: int = 4, display: "pandas.DataFrame | None" = None, wrap: tuple[str, ...] = ()) -> None:
+        """Write ``<name>.csv`` and show the table (or ``display``, a compact view of it) with
+        labels and consistent decimals (:func:`navbench.report.display.shown`); the columns
+        ``wrap`` (commands) break anywhere instead of widening the page."""
+        from navbench.report.display import mark_column, shown as for_page
+
+        self.csv(frame, name, index, digits)
+        cols = list((frame if display is None else display).columns)
+        shown = for_page(frame if display is None else display)
         for col in shown.columns:
             if shown[col].dtype == object:
                 shown[col] = shown[col].map(_cell)
-        body = shown.to_html(index=index, na_rep="–", border=0, classes="tbl",
-                             float_format=lambda v: f"{v:.{digits}g}", escape=True)
+        body = shown.to_html(index=index, na_rep="–", border=0, classes="tbl", escape=True)
+        for col in wrap:
+            body = mark_column(body, cols.index(col), "wrap")
         self.sections.append(
             f'<figure class="table"><figcaption>{html.escape(caption)} '
-            f'(<a href="{html.escape(path.name)}">{html.escape(path.name)}</a>)</figcaption>{body}</figure>')
+            f'(<a href="{html.escape(name)}.csv">{html.escape(name)}.csv</a>)</figcaption>{body}</figure>')
+
+    def csv(self, frame: "pandas.DataFrame", name: str, index: bool = False, digits: int = 4) -> None:
+        """Write ``<name>.csv`` (full precision) without showing it."""
+        frame.to_csv(self.out_dir / f"{name}.csv", index=index, float_format=f"%.{max(digits, 6)}g")
+        self.csvs.append(f"{name}.csv")
 
     def figure(self, draw: Callable[[Any], None], caption: str, size: tuple[float, float]) -> bool:
         """Draw ``draw(fig)`` on a fresh figure and embed it as a base64 PNG; False on failure."""
@@ -131,6 +141,8 @@ table.tbl td,table.tbl th{border:1px solid #ddd;padding:.2em .5em;text-align:rig
 table.tbl th{background:#f3f3f3}figure{margin:1em 0}figure img{max-width:100%;height:auto}
 figcaption{font-size:.85em;color:#555}.note{color:#8a6d3b;background:#fcf8e3;padding:.3em .6em}
 nav a{margin-right:1em}.meta{font-size:.85em;color:#555}
+table.tbl td.wrap{overflow-wrap:anywhere;text-align:left}
+summary,figcaption,.meta,p{overflow-wrap:anywhere}
 pre{font-size:.8em;background:#f7f7f7;padding:.5em;overflow-x:auto}details{margin:.3em 0;font-size:.9em}
 """
 
@@ -216,7 +228,7 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
         caption += f"; the newest {RUNS_SHOWN} of {len(shown)} runs, every run in runs.csv"
         shown = shown.tail(RUNS_SHOWN)
     # proc_start (the liveness token of a running run) is in runs.csv, not in the page's width
-    page.table(t, "runs", caption, display=shown)
+    page.table(t, "runs", caption, display=shown, wrap=("command",))
     for _, r in runs.tail(5).iterrows():
         page.sections.append(
             f"<details><summary>Resolved config of run {int(r['id'])} ({html.escape(str(r['command']))}, "
@@ -239,12 +251,10 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
     found = conditions_in(table) or [None]
     preset = table["preset"].iloc[0] if "preset" in table.columns and len(table) else "paper"  # issue 15
     page.p(conditions_sentence(found))
-    for i, conds in enumerate(found):
+    section_leaderboard(page, table, preset)  # issue 35: SR, SPL and the paper's SPL in one table
+    for i, conds in enumerate(found):  # Fig. 5a's layout, in the CSV files
         t = table if conds is None else table[table["conditions"] == conds]
-        under = "" if conds is None else f", conditions: {conds}"
-        page.table(spl_matrix(t, "all"), "spl_table" + (f"_{i + 1}" if i else ""),
-                   f"SPL pooled over all levels, [95% BCa bootstrap interval stratified by level]{under}; "
-                   f"scoring preset '{preset}'", index=True)
+        page.csv(spl_matrix(t, "all"), "spl_table" + (f"_{i + 1}" if i else ""), index=True)
     # Fig. 5a and its values are the paper's point-goal figure (issue 15: image goals are scored
     # in the goals section): an image-goal-only report sets nothing beside them
     has_point = "goal" not in table.columns or bool((table["goal"] == "point").any())
@@ -253,7 +263,7 @@ def _section_spl(page: _Page, table: "pandas.DataFrame | None") -> None:
         paper = pd.DataFrame(
             [[PAPER_SPL.get((n, e), np.nan) for e in ("ours", "no-map", "dynamics")] for n in ("high", "mid", "low")],
             index=pd.Index(["high", "mid", "low"], name="noise"), columns=["ours", "no-map", "dynamics"])
-        page.table(paper, "spl_paper", "The paper's SPL, average over six environments (Fig. 5a)", index=True)
+        page.csv(paper, "spl_paper", index=True)  # shown beside navbench's in the leaderboard
     else:
         page.note("No point-goal episodes: the paper's Fig. 5a values and figure are left out; the "
                   "image-goal scores by difficulty are under 'Goals and difficulty'.")
@@ -491,7 +501,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
                  load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
                  n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3,
                  run: int | str | None = None, cell_keys: "Collection[str] | None" = None,
-                 preset: str = "paper", benchmark_version: str | None = None) -> Path:
+                 preset: str = "paper", pairs=(), benchmark_version: str | None = None) -> Path:
     """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
@@ -500,9 +510,11 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     the cells ``cell_keys`` (``navbench all`` passes its grid's cells). Success and SPL follow
     the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table, and
     one benchmark version: ``benchmark_version``, else the newest of the selection (named at the
-    top of the report, with the versions left out).
+    top of the report, with the versions left out). ``pairs``: ``(A, B)`` estimator names whose
+    B - A the report shows (``report --pair``).
     """
     from navbench import __version__
+    from navbench.report.display import plural
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -526,6 +538,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     _section_runs(page, runs)
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)
+    section_compare(page, episodes, pairs, n_boot, seed)  # issue 35: report --pair
     section_failures(page, episodes)
     from navbench.report.goals import section_goals  # issue 15
 
@@ -541,8 +554,8 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
 
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
-        ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), ("failures", "Failures"),
-        ("scores", "Scores"), ("goals", "Goals"), ("tracking", "Tracking"),
+        ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), *((("compare", "Comparisons"),) if pairs else ()),
+        ("failures", "Failures"), ("scores", "Scores"), ("goals", "Goals"), ("tracking", "Tracking"),
         ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench"),
         ("localization", "Localisation")))
     doc = (
@@ -552,8 +565,8 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
         f"<style>{_CSS}</style></head><body>\n"
         "<h1>navbench report: Tracking and Planning with Spatial World Models</h1>\n"
         f"<p class=\"meta\">Generated {now} by navbench {html.escape(__version__)} from "
-        f"{html.escape(db.display_url)}: {len(runs)} runs, {len(episodes)} episodes, "
-        f"{len(tracking)} tracking rows. CSV files: "
+        f"{html.escape(db.display_url)}: {plural(len(runs), 'run')}, {plural(len(episodes), 'episode')}"
+        + (f", {plural(len(tracking), 'tracking-study row')}" if len(tracking) else "") + ". CSV files: "
         + ", ".join(f'<a href="{html.escape(c)}">{html.escape(c)}</a>' for c in page.csvs)
         + f".</p>\n<nav>{nav}</nav>\n" + "\n".join(page.sections) + "\n</body></html>\n")
     from navbench.outpath import write_text_atomic

@@ -182,7 +182,7 @@ def section_failures(page: Any, episodes: "pandas.DataFrame") -> None:
             lambda o: json.dumps(o if isinstance(o, dict) else {}, sort_keys=True))
     e.to_csv(page.out_dir / "episodes.csv", index=False, float_format="%.6g")
     page.csvs.append("episodes.csv")
-    page.sections.append(f'<p class="meta">Every episode of this report ({len(e)} rows: level, '
+    page.sections.append(f'<p class="meta">Every episode of this report ({len(e)} row{"" if len(e) == 1 else "s"}: level, '
                          'estimator, noise, task, seed, outcome, end reason, RMSEs, per-step '
                          'timings, keys): <a href="episodes.csv">episodes.csv</a>.</p>')
 
@@ -279,8 +279,10 @@ def section_speed_vs_paper(page: Any, episodes: "pandas.DataFrame", bench: "pand
     from navbench.paper import PAPER_HARDWARE
 
     t = speed_vs_paper(episodes, bench)
+    from navbench.report.display import by_rows
+
     page.table(t, "runtime_vs_paper", "Fig. 4c beside the paper: median milliseconds per step "
-               "(last row: steps per second); – where not measured", index=True, digits=4)
+               "(last row: steps per second); – where not measured", index=True, digits=4, display=by_rows(t))
     measured = measurement_conditions(episodes, runs)
     if measured:
         page.p(f"The episodes of this report were timed with: {measured}.")
@@ -389,7 +391,7 @@ def level_runs_figure(page: Any, name: str, level, tasks, eps: "pandas.DataFrame
     ntasks = 0 if tasks is None else len(tasks)
     shown = sorted({int(t) for t in chosen["task_id"]}) if len(chosen) else []
     page.figure(lambda fig: draw_fig3(fig, level, tasks, panels, planning_slice),
-                f"{name}: top view, {ntasks} tasks (dots: starts, crosses: targets); tasks "
+                f"{name}: top view, {ntasks} task{'' if ntasks == 1 else 's'} (dots: starts, crosses: targets); tasks "
                 f"{', '.join(map(str, shown)) or 'none'} by every estimator at each noise level "
                 f"(the tasks with the most failures first; seed {int(chosen['seed'].min()) if len(chosen) else 0}); "
                 "magenta: the learned map's band slice the planner reads" + slice_note

@@ -481,6 +481,8 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
     """
     import pandas as pd
 
+    from navbench.results.paired import paired_table
+
     if frame.empty:
         return pd.DataFrame(columns=PAIRED_COLUMNS)
     f = frame if "pair_condition" in frame.columns else with_identities(frame)
@@ -491,43 +493,14 @@ def paired_differences(frame: "pandas.DataFrame", reference: str = CLAIM_REFEREN
     oths = sorted(f.loc[base.isin(others), "variant"].unique(),
                   key=lambda v: (_order_key(v.split("{")[0], ESTIMATOR_ORDER), v))
     keys = ["pair_condition", "conditions", "task_uid", "seed"]
-    cols = keys + ["level", "noise", "spl_term", "success"]
-    out = []
-    for ref in refs:
-        a = f.loc[f["variant"] == ref, cols].drop_duplicates(keys)
-        for oth in oths:
-            b = f.loc[f["variant"] == oth, cols].drop_duplicates(keys)
-            m = a.merge(b[keys + ["spl_term", "success"]], on=keys, how="outer",
-                        suffixes=("_r", "_o"), indicator=True)
-            # the other side's level/noise for episodes the reference lacks
-            lv = b.set_index(keys)[["level", "noise"]]
-            miss = m["_merge"] == "right_only"
-            if miss.any():
-                idx = pd.MultiIndex.from_frame(m.loc[miss, keys])
-                m.loc[miss, "level"] = lv.loc[idx, "level"].to_numpy()
-                m.loc[miss, "noise"] = lv.loc[idx, "noise"].to_numpy()
-            groups = [(lvl, g) for lvl, g in m.groupby("level", sort=True)]
-            if pooled:
-                groups.append(("all", m))
-            for lvl, g in groups:
-                for (noise, conds), c in g.groupby(["noise", "conditions"], sort=False):
-                    both = c[c["_merge"] == "both"]
-                    row = {"level": lvl, "noise": noise, "conditions": conds, "comparison": f"{ref} - {oth}",
-                           "reference": ref, "other": oth, "pairs": int(len(both)),
-                           "unpaired_reference": int((c["_merge"] == "left_only").sum()),
-                           "unpaired_other": int((c["_merge"] == "right_only").sum())}
-                    row["reference_spl"] = float(both["spl_term_r"].mean()) if len(both) else np.nan
-                    row["other_spl"] = float(both["spl_term_o"].mean()) if len(both) else np.nan
-                    for name, col in (("spl_diff", "spl_term"), ("success_diff", "success")):
-                        d = (both[f"{col}_r"] - both[f"{col}_o"]).to_numpy(dtype=float)
-                        row[name] = float(np.mean(d)) if d.size else np.nan
-                        strata = [(both.loc[both["level"] == l, f"{col}_r"]
-                                   - both.loc[both["level"] == l, f"{col}_o"]).to_numpy(dtype=float)
-                                  for l in sorted(both["level"].unique())]
-                        row[f"{name}_ci_low"], row[f"{name}_ci_high"] = \
-                            stratified_bootstrap_ci(strata, CI_LEVEL, n_boot, seed)
-                    out.append(row)
-    table = pd.DataFrame(out, columns=PAIRED_COLUMNS)
+    f = f.drop_duplicates(["variant"] + keys)
+    # navbench.results.paired: B - A, so the other estimator is side A and the reference side B
+    t = paired_table(f, f, [(oth, ref) for ref in refs for oth in oths], keys, method="bca",
+                     n_boot=n_boot, seed=seed, pooled=pooled, metrics=("spl", "success"))
+    t = t.rename(columns={"estimator_b": "reference", "estimator_a": "other", "unpaired_b": "unpaired_reference",
+                          "unpaired_a": "unpaired_other", "spl_b": "reference_spl", "spl_a": "other_spl"})
+    t["comparison"] = t["reference"] + " - " + t["other"]
+    table = t[PAIRED_COLUMNS]
     if table.empty:
         return table
     key = [((r.level == "all"), r.level, _conditions_order(r.conditions), _order_key(r.noise, NOISE_ORDER),

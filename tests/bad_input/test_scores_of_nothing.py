@@ -55,7 +55,7 @@ def test_views_whose_depth_is_all_invalid_are_not_fitted_or_scored(project, seq)
 def test_a_max_range_that_leaves_no_pixel_stores_no_score(project, seq):
     """Nothing rendered within max_range: depth MAE and RGB L1 are undefined (None / NULL, marked
     in the table), not 0.0."""
-    from navbench.pipeline.db import ResultsDB
+    from navbench.results.db import ResultsDB
 
     (project / "short.toml").write_text((project / "tiny.toml").read_text()
                                         .replace('name = "tinytest"', 'name = "short"')

@@ -174,7 +174,7 @@ def test_report_states_the_conditions_and_never_pools_them(two_conditions, tmp_p
     index = build_report(d, tmp_path / "rep", levels_dir=tmp_path / "nolevels", n_boot=50)
     page = " ".join(index.read_text().split())
     for conds in (DEFAULTS, PAPER):
-        assert f"all levels, [95% BCa bootstrap interval stratified by level], conditions: {conds}" in page
+        assert f"Fig. 5a SPL beside navbench&#x27;s; scoring preset &#x27;paper&#x27;; conditions: {conds}" in page
         assert f"Noise low: ours − ablation on the same (task, seed); conditions: {conds}" in page
         assert f"margin; conditions: {conds}" in page  # the claim figure's caption
     assert "2 sets of simulator conditions, never pooled" in page

@@ -18,20 +18,26 @@ from __future__ import annotations
 import argparse
 import json
 import sqlite3
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
-from scripts.paired_runs import runs_frame  # noqa: E402  (the same rows and duplicate rule)
+KEY = ["level", "task_id", "seed", "noise", "estimator"]
 
 NOISES = ["low", "mid", "high"]
 MEASURES = {"geodesic_ratio": "geo/eucl", "narrowest_passage_median": "door med (m)",
             "narrowest_passage_min": "door min (m)", "free_clearance": "clearance (m)",
             "length": "length (m)", "planner_free": "planner free"}
+
+
+def runs_frame(con, runs: list[int]) -> pd.DataFrame:
+    """The episodes of ``runs``, a (level, task, seed, noise, estimator) stored twice keeping its
+    last row (the rule of the paired_runs script that ``navbench compare`` replaced)."""
+    q = (f"SELECT id AS row_id, run_id, level, task_id, seed, noise, estimator, spl_term, success "
+         f"FROM episodes WHERE run_id IN ({','.join('?' * len(runs))}) ORDER BY id")
+    return pd.read_sql(q, con, params=runs).drop_duplicates(KEY, keep="last").set_index(KEY)
 
 
 def episodes(db: str, runs: list[int], tasks: int | None) -> pd.DataFrame:

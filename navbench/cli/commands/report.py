@@ -24,10 +24,13 @@ def report(
                                "(navbench score --help). Default: paper; nrns when every selected "
                                "episode is an unknown-house one.", show_default=False),
     benchmark_version: str = typer.Option(None, "--benchmark-version", help=VERSION_HELP, show_default=False),
+    pair: list[str] = typer.Option(None, "--pair", metavar="A:B", help="Also show B - A of these two "
+                                   "estimators on the same episodes, as navbench compare --pair (repeatable)."),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
-    Runs, SPL (Fig. 5a), scores, RMSE CDFs + runtime (Fig. 4), levels (Fig. 3), maps (Fig. 1).
+    Runs, a leaderboard and SPL (Fig. 5a), scores, RMSE CDFs + runtime (Fig. 4), levels (Fig. 3),
+    maps (Fig. 1); with --pair A:B, the paired comparison of A and B.
     """
     from rich.markup import escape
 
@@ -45,6 +48,9 @@ def report(
 
     if preset is not None:
         get_preset(preset, "--preset")
+    from navbench.results.compare import parse_pair
+
+    pairs = [parse_pair(p) for p in pair or []]
     # only into a new, empty or earlier report folder; built beside it, then swapped in whole,
     # so a write that fails (disk full) leaves the earlier report as it was
     protected = protected_paths(db, cache, levels)
@@ -72,7 +78,8 @@ def report(
             with writing(dest, "--out", "the report"):  # a write that still fails: one line
                 build_report(rdb, build, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
-                             run=selection, preset=preset, benchmark_version=benchmark_version)
+                             run=selection, preset=preset, pairs=pairs,
+                             benchmark_version=benchmark_version)
             publish(build, dest, protected, option="--out")
         finally:
             shutil.rmtree(build, ignore_errors=True)
