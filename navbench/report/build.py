@@ -223,11 +223,16 @@ def _section_runs(page: _Page, runs: "pandas.DataFrame") -> None:
         caption += ("; status running: the run had not finished when this page was written (a "
                     "`navbench all` run is marked done before it draws its report, so this is "
                     "another command, still running or killed)")
-    shown = t.drop(columns=["proc_start"], errors="ignore")
+    if "benchmark_version" in t.columns:  # runs stored before versions: navbench-1
+        from navbench.results.versions import versions_of
+
+        t["benchmark_version"] = versions_of(t)
+    shown = t.drop(columns=["proc_start", "pid", "navbench_version"], errors="ignore")
     if len(shown) > RUNS_SHOWN:  # a long-lived database: the page shows the newest, the CSV all
         caption += f"; the newest {RUNS_SHOWN} of {len(shown)} runs, every run in runs.csv"
         shown = shown.tail(RUNS_SHOWN)
-    # proc_start (the liveness token of a running run) is in runs.csv, not in the page's width
+    # proc_start and pid (the liveness of a running run) and the package version (the commit says
+    # more) are in runs.csv, not in the page's width
     page.table(t, "runs", caption, display=shown, wrap=("command",))
     for _, r in runs.tail(5).iterrows():
         page.sections.append(

@@ -17,6 +17,7 @@ SIG = 3
 LABELS = {
     # runs
     "config_hash": "config hash", "navbench_version": "navbench", "git_commit": "commit",
+    "benchmark_version": "benchmark",
     # tracking summary
     "trajectories": "trajectories", "loc_rmse_median_m": "median location RMSE (m)",
     "frac_loc_rmse_below_0.1m": "location RMSE < 0.1 m (share)", "rot_rmse_median_deg": "median orientation RMSE (°)",
