@@ -82,28 +82,37 @@ def resolve_pairs(pairs, variants_a: list[str], variants_b: list[str], side_a: s
     return out
 
 
-def _side(db, runs, level, where: str) -> "tuple[pandas.DataFrame, str]":
+def _side(db, runs, level, where: str, version: str | None = None,
+          warnings: list | None = None) -> "tuple[pandas.DataFrame, str]":
+    """One side's episodes, of one benchmark version (``version``, else the newest of the side;
+    a note naming what was left out goes to ``warnings``), and the side in words."""
     from navbench.results.db.resume import resolve_run_ids
-    from navbench.results.score import select_episodes
+    from navbench.results.score import select_versioned
 
     try:
         ids = resolve_run_ids(db, runs)
     except DatabaseError as e:  # it names --run: say which option it was
         raise type(e)(str(e).replace("--run", where)) from None
-    frame = select_episodes(db, run=None if ids is None else ",".join(map(str, ids)), level=level)
+    frame, chosen, note = select_versioned(db, run=None if ids is None else ",".join(map(str, ids)),
+                                           level=level, benchmark_version=version)
+    if note and warnings is not None:
+        warnings.append(f"side {where[2:].upper()}: {note}")
     what = "all episodes" if ids is None else f"run{'s' if len(ids) > 1 else ''} {','.join(map(str, ids))}"
-    return frame, f"{what} of {db.display_url}"
+    return frame, f"{what} of {db.display_url}" + (f", {chosen}" if chosen else "")
 
 
 def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None = None,
             b_db: str | None = None, preset: str | None = None, level: list[str] | None = None,
-            method: str = "bca", n_boot: int | None = None, seed: int = 0) -> Comparison:
+            method: str = "bca", n_boot: int | None = None, seed: int = 0,
+            benchmark_version: str | None = None) -> Comparison:
     """Paired differences B - A (module docstring). ``db``: the database of side A (and of B
     unless ``b_db``; ``None``: ``NAVBENCH_DB`` or the project's default); ``pairs``: ``(A, B)``
     estimator names (``"A:B"`` strings are parsed); ``a``, ``b``: run selections (``"35,54"``,
     ``"latest"``, ``"all"``); ``preset``: scoring preset (default ``paper``, ``nrns`` when every
     episode is an unknown-house one); ``level``: only these levels; ``method``: ``"bca"`` or
-    ``"percentile"`` (:mod:`navbench.results.paired`), ``n_boot`` resamples (its default).
+    ``"percentile"`` (:mod:`navbench.results.paired`), ``n_boot`` resamples (its default);
+    ``benchmark_version``: read that version on both sides (default: each side's newest; the
+    side names its version, and a warning says when the two sides' versions differ).
     Bad input (an unknown run, estimator or preset, no episodes) raises a
     :class:`~navbench.errors.NavbenchError`.
     """
@@ -125,18 +134,24 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
                           "(--a RUNS --b RUNS, or --b-db URL)")
     warnings: list[str] = []
     with ResultsDB(db, create=False) as rdb:
-        fa, side_a = _side(rdb, a, level, "--a")
+        fa, side_a = _side(rdb, a, level, "--a", benchmark_version, warnings)
         if b_db is not None:
             try:
                 rdb_b = ResultsDB(b_db, create=False)
             except DatabaseError as e:  # it suggests --db: the option here is --b-db
                 raise DatabaseError(f"--b-db: {str(e).split('; run `navbench all`')[0]}") from None
             with rdb_b:
-                fb, side_b = _side(rdb_b, b, level, "--b")
+                fb, side_b = _side(rdb_b, b, level, "--b", benchmark_version, warnings)
         elif two_sides:
-            fb, side_b = _side(rdb, b, level, "--b")
+            fb, side_b = _side(rdb, b, level, "--b", benchmark_version, warnings)
         else:
             fb, side_b = fa, side_a
+    from navbench.results.versions import versions_of
+
+    va_, vb_ = (set(versions_of(f)) for f in (fa, fb))
+    if two_sides and va_ and vb_ and va_ != vb_:
+        warnings.append(f"side A is {', '.join(sorted(va_))} and side B {', '.join(sorted(vb_))}: a "
+                        "comparison across benchmark versions (what a version's acceptance test measures)")
     for frame, side in ((fa, side_a), (fb, side_b)):
         if frame.empty:
             raise ConfigError(f"no episodes in {side}" + (f" at level {', '.join(level)}" if level else ""))

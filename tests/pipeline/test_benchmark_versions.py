@@ -128,3 +128,20 @@ def test_report_names_its_version_and_leaves_the_other_out(db, tmp_path):
     assert "Benchmark version navbench-9" in text and "never pooled" in text
     old = build_report(db, tmp_path / "rep1", n_boot=50, benchmark_version="navbench-1").read_text()
     assert "Benchmark version navbench-1" in old
+
+
+def test_compare_names_each_sides_version_and_warns_across_versions(db):
+    from navbench.results.compare import compare
+
+    _two_versions(db)
+    # the same version both sides: run 1 vs run 1 as two sides is navbench-1 on both
+    res = compare(db=db.url, a="1", b="2", pairs=[("ours", "ours")], n_boot=50)
+    assert res.side_a.endswith("navbench-1") and res.side_b.endswith("navbench-9")
+    assert any("across benchmark versions" in w for w in res.warnings)
+    pooled = res.table[res.table["level"] == "all"].iloc[0]
+    assert pooled["pairs"] == 2 and pooled["spl_diff"] == pytest.approx(-0.7)  # B - A: 0 - (.8+.6)/2
+    one = compare(db=db.url, pairs=[("ours", "ours")], a="all", b="all", n_boot=50,
+                  benchmark_version="navbench-1")
+    assert one.side_a.endswith("navbench-1") and one.side_b.endswith("navbench-1")
+    assert not any("across benchmark versions" in w for w in one.warnings)
+    assert any("never pooled" in w for w in one.warnings)  # each side left navbench-9 out

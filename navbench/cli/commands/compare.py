@@ -42,6 +42,9 @@ def compare(
     seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB", help=DB_HELP + " Side A's database."),
+    benchmark_version: str = typer.Option(None, "--benchmark-version", help="Benchmark version read on both "
+                                          "sides " + default("each side's newest; every side names its "
+                                                             "version") + ".", show_default=False),
 ):
     """Paired differences B - A on the same episodes: two estimators, two sets of runs, two databases.
 
@@ -65,7 +68,8 @@ def compare(
     from navbench.results.score import table_records
 
     result = run_compare(db=db, pairs=pair or [], a=a, b=b, b_db=b_db, preset=preset,
-                         level=parse_list(level) or None, method=interval.value, n_boot=boot, seed=seed)
+                         level=parse_list(level) or None, method=interval.value, n_boot=boot, seed=seed,
+                         benchmark_version=benchmark_version)
     for w in result.warnings:
         err_console.print(f"[yellow]warning:[/] {escape(w)}", markup=True)
     t = result.table
