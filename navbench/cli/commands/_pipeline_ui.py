@@ -107,11 +107,12 @@ def run_with_ui(body, json_mode: bool = False):
         raise SystemExit(130) from None
 
 
-def load_profile_with(profile: str | None, **overrides):
-    """Load a profile and apply the CLI's non-None overrides."""
+def load_profile_with(profile: str | None, sets: list[str] | None = None, **overrides):
+    """Load a profile, apply the ``--set KEY=VALUE`` items, then the CLI's non-None overrides."""
+    from navbench.pipeline.overrides import apply_sets
     from navbench.pipeline.profiles import load_profile, override
 
-    return override(load_profile(profile), **overrides)
+    return override(apply_sets(load_profile(profile), sets), **overrides)
 
 
 def command_line() -> str:

@@ -55,7 +55,10 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         from navbench import levelgen as _lg  # light: numpy only
 
         if cfg.seed is None and cfg.name not in _lg.BENCHMARK_LEVELS:
-            raise LevelError(f"level {cfg.name!r}: no {committed} and no seed to generate it; make "
+            from navbench.names import did_you_mean
+
+            known = sorted({*_lg.BENCHMARK_LEVELS, *(q.stem for q in Path(ctx.levels_dir).glob("*.json"))})
+            raise LevelError(f"level {cfg.name!r}{did_you_mean(cfg.name, known)}: no {committed} and no seed to generate it; make "
                              f"it with `navbench make-level {cfg.name} --seed S` (or list it in a "
                              f"profile's levels with a level_seed)")
         if cfg.seed is None:  # a benchmark level ignores the seed: keep the key of seed 1
