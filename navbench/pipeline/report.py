@@ -552,7 +552,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     return write_text_atomic(out / "index.html", doc)
 
 
-def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryLoader, MapLoader]:
+def store_loaders(cache_root: str | Path | None = None) -> tuple[TrajectoryLoader, MapLoader]:
     """``(load_trajectory, load_map)`` reading verified artifacts of the stage cache: episode
     records (``episode`` stage) and fitted maps (``fit-map`` stage)."""
     from navbench.pipeline.cache import ArtifactStore

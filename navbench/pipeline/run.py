@@ -62,7 +62,7 @@ class SilentProgress:
 
 
 def stage_context(progress: Progress | None = None, db: "ResultsDB | None" = None,
-                  force: bool | set[str] = False, cache_root: str | Path = "results/cache",
+                  force: bool | set[str] = False, cache_root: str | Path | None = None,
                   levels_dir: str | Path = "levels", tasks_dir: str | Path = "tasks") -> "StageContext":
     """A :class:`~navbench.pipeline.stages.StageContext` reporting through ``progress``.
 
@@ -110,6 +110,8 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     """
     from navbench.config import config_hash, to_jsonable
 
+    from navbench.errors import ConfigError, LevelError
+
     cfg = to_jsonable(config)
     run_id = db.start_run(profile, command, cfg, config_hash(cfg))
     status = "failed"
@@ -119,8 +121,15 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     except KeyboardInterrupt:
         status = "interrupted"
         raise
+    except (ConfigError, LevelError):
+        # bad input (a misspelt level, an option the stage refuses): a run that stored nothing
+        # is not recorded as one (issue 35 §5); one that stored rows stays, marked failed
+        if db.discard_run(run_id):
+            status = None
+        raise
     finally:
-        db.finish_run(run_id, status)
+        if status is not None:
+            db.finish_run(run_id, status)
         if ctx is not None and ref_name and ctx.used:
             ctx.store.set_ref(ref_name, ctx.used)
 
@@ -227,7 +236,7 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
                 executor: str = "local", workers: int | None = None, address: str | None = None,
                 chunk_size: int | None = None, progress: Progress | None = None,
                 until: str = "report", report_dir: str | Path | None = None,
-                cache_root: str | Path = "results/cache", command: str | None = None,
+                cache_root: str | Path | None = None, command: str | None = None,
                 ref_name: str = "all") -> RunResult:
     """Run a profile end to end: make-level -> collect-views -> fit-map -> sample-tasks ->
     run-navigation -> score -> report, every stage cached and the run recorded.

@@ -68,7 +68,13 @@ def register(app: typer.Typer) -> None:
         opts = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                    max_height_dev)
         prof = load_profile_with(profile, sets, fit_steps=steps, fit_seed=seed, camera=camera)
-        if device is not None:
+        if device is not None:  # checked as the option the user typed, not as the profile's [fit]
+            from navbench.pipeline.checks import _check_fit, _Invalid
+
+            try:
+                _check_fit({**prof.fit, "device": device})
+            except _Invalid as e:
+                raise ConfigError(f"--device {device}: {str(e).removeprefix('device: ')}") from None
             prof = dataclasses.replace(prof, fit={**prof.fit, "device": device})
         with open_db(db) as rdb, PipelineUI(json_mode=json_out) as ui:
             ctx = stage_context(ui, rdb, force={"fit-map"} if force else set())

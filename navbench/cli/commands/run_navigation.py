@@ -76,6 +76,9 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.stages.online import ONLINE_ESTIMATOR, is_online
 
         base = apply_sets(load_profile(profile), sets)
+        from navbench.pipeline.stages.level import check_typed_levels
+
+        check_typed_levels(levels, base.levels)  # a typo is not a new level from level_seed
         if estimators is None and is_online(map_source or base.map_source):
             estimators = ONLINE_ESTIMATOR  # the unknown-house loop's pose model: the true pose
         # an option given but empty (--estimators ',,') is an error, not the profile's list
@@ -114,6 +117,9 @@ def _with_options(prof, options: dict[str, dict]):
             key = next(iter(opts))
             raise ConfigError(f"--option {est}.{key}: {est!r} is not among the run's estimators "
                               f"({', '.join(prof.estimators)}){did_you_mean(est, prof.estimators)}")
+    from navbench.pipeline.checks import check_estimator_options
+
+    check_estimator_options(options, "--option")  # named as typed, before the profile's label
     merged = {k: dict(v) for k, v in prof.estimator_options.items()}
     for est, opts in options.items():
         merged[est] = {**merged.get(est, {}), **opts}

@@ -11,7 +11,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Iterator
 
-from sqlalchemy import DateTime, Float, create_engine, event, inspect, select, tuple_, update
+from sqlalchemy import DateTime, Float, create_engine, delete, event, inspect, select, tuple_, update
 from sqlalchemy.engine import Connection, Engine, make_url
 from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
 
@@ -274,6 +274,16 @@ class ResultsDB:
                 finished=_utcnow(), status=status)).rowcount
         if n == 0:
             raise DatabaseError(f"no run with id {run_id} in {self.display_url}")
+
+    def discard_run(self, run_id: int) -> bool:
+        """Delete run ``run_id`` when no row of any table refers to it (a command refused for
+        bad input after its run began stored nothing: it was not a run); whether it was deleted."""
+        tables = [t for t in Base.metadata.sorted_tables if "run_id" in t.c]
+        with self._begin() as conn:
+            if any(conn.execute(select(t.c.run_id).where(t.c.run_id == run_id).limit(1)).first() for t in tables):
+                return False
+            conn.execute(delete(Run.__table__).where(Run.__table__.c.id == run_id))
+        return True
 
     def mark_dead_runs(self) -> list[int]:
         """Mark ``interrupted`` the runs still ``running`` on this host whose process is gone
