@@ -291,6 +291,8 @@ def profile_path(name_or_path: str, where: str = "--profile", relative_to: Path 
         if not path.is_file():
             what = "is a folder, not a .toml file" if path.is_dir() else "no such file"
             raise ConfigError(f"{where} {name_or_path}: {what}")
+        if path.suffix != ".toml":
+            raise ConfigError(f"{where} {name_or_path}: not a profile (a profile file ends in .toml)")
         return path
     path = PROFILES_DIR / f"{name_or_path}.toml"
     if not is_safe_name(name_or_path) or not path.is_file():
