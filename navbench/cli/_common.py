@@ -27,6 +27,18 @@ class _Console(Console):
 
     size = property(_size, Console.size.fset)
 
+    def print(self, *objects: Any, **kwargs: Any) -> None:
+        """As rich's, but a table's cells are never cut short with an ellipsis (``ours…`` for
+        both ``ours`` and ``ours-every-k``): on a narrow terminal a long cell folds onto more lines."""
+        from rich.table import Table
+
+        for obj in objects:
+            if isinstance(obj, Table):
+                for col in obj.columns:
+                    if col.overflow == "ellipsis":
+                        col.overflow = "fold"
+        super().print(*objects, **kwargs)
+
 
 # soft_wrap: a printed line is never broken at the console's width, so a long path stays one
 # line that a script can parse and a user can paste; tables and other renderables still lay out

@@ -167,3 +167,12 @@ def test_navbench_cache_is_shared_and_export_names_the_cache(project, tmp_path, 
     assert res.code == 0, res.output
     assert "exported 1 trajectory pairs" in res.out
     assert_clean_error(nb("export-trajectories", "out2", "--db", url, "--cache", "nope"), "--cache nope")
+
+
+def test_a_narrow_terminal_folds_cells_instead_of_cutting_them(project, monkeypatch):
+    _fill_runs(project)
+    monkeypatch.setenv("COLUMNS", "70")
+    res = nb("db", "runs")
+    assert res.code == 0, res.output
+    assert "…" not in res.out
+    assert max(len(ln) for ln in res.out.splitlines()) <= 70
