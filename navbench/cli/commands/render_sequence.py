@@ -12,7 +12,7 @@ from navbench.cli._common import console
 def register(app: typer.Typer) -> None:
     @app.command("render-sequence")
     def render_sequence(
-        level: str = typer.Argument(..., help="Level name (levels/NAME.json, or a benchmark level) "
+        level: str = typer.Argument(..., metavar="LEVEL", help="Level name (levels/NAME.json, or a benchmark level) "
                                     "or path to a level file."),
         out: Path = typer.Argument(..., metavar="OUT", help="Output folder (new or empty)."),
         frames: int = typer.Option(300, "--frames", min=2, max=100_000, help="Frames of the sequence."),
