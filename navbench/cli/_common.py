@@ -17,12 +17,23 @@ PIPED_WIDTH = 1000
 class _Console(Console):
     """A rich console that lays tables out at :data:`PIPED_WIDTH` when its stream is not a
     terminal (rich's own fallback is 80 columns, or the width of a terminal on stdin) unless
-    ``$COLUMNS`` says otherwise; on a terminal, the terminal's width."""
+    ``$COLUMNS`` says otherwise; on a terminal, the terminal's width. ``$COLUMNS`` is read at
+    each print, not once when the module is imported (rich's)."""
+
+    def __init__(self, *args: Any, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self._width = kwargs.get("width")
 
     def _size(self) -> ConsoleDimensions:
+        import os
+
         dims = Console.size.fget(self)
-        if self._width is None and not self.is_terminal and "COLUMNS" not in self._environ:
-            return ConsoleDimensions(PIPED_WIDTH, dims.height)
+        if self._width is None:
+            columns = os.environ.get("COLUMNS", "")
+            if columns.isdigit() and int(columns) > 0:
+                return ConsoleDimensions(int(columns), dims.height)
+            if not self.is_terminal:
+                return ConsoleDimensions(PIPED_WIDTH, dims.height)
         return dims
 
     size = property(_size, Console.size.fset)

@@ -124,7 +124,8 @@ def _fill_runs(project):
     return long.strip()
 
 
-def test_tables_print_whole_when_piped(project):
+def test_tables_print_whole_when_piped(project, monkeypatch):
+    monkeypatch.delenv("COLUMNS", raising=False)  # an exported $COLUMNS is a width asked for
     long = _fill_runs(project)
     res = nb("db", "runs")
     assert res.code == 0, res.output
