@@ -292,4 +292,10 @@ def resolve_level(name_or_path: str, root: str | Path = ".") -> Level:
     if p.suffix == ".json" or p.is_file():
         return load_level(p, name=p.stem)
     check_name("level name", name_or_path, LevelError)
-    return load_level(level_path(name_or_path, root), name=name_or_path)
+    path = level_path(name_or_path, root)
+    if not path.is_file():
+        from navbench.names import did_you_mean
+
+        known = sorted(q.stem for q in path.parent.glob("*.json"))
+        raise LevelError(f"{path}: no such level file{did_you_mean(name_or_path, known)}")
+    return load_level(path, name=name_or_path)

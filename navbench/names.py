@@ -37,3 +37,16 @@ def check_name(kind: str, name, error: type[NavbenchError] = ConfigError) -> str
     if not is_safe_name(name):
         raise error(f"{kind} {name!r} is not a safe name ({SAFE_NAME_RULE})")
     return name
+
+
+def did_you_mean(name, known) -> str:
+    """``" (did you mean 'house-1'?)"`` when ``known`` holds names close to ``name`` (difflib,
+    at most three), else ``""``; for the message of an unknown level, profile, estimator or preset."""
+    import difflib
+
+    if not isinstance(name, str):
+        return ""
+    close = difflib.get_close_matches(name, [str(k) for k in known], n=3, cutoff=0.6)
+    if not close:
+        return ""
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)"

@@ -15,8 +15,15 @@ from rich.markup import escape
 
 from navbench.pipeline.profiles import DEFAULT_PROFILE, available_profiles, bundled_field_values
 
-__all__ = ["DB_HELP", "DB_URL", "VERSION_HELP", "DEFAULT_PROFILE", "bundled_profiles", "default", "profile_default",
-           "profile_help", "profile_values"]
+__all__ = ["DB_HELP", "DB_URL", "DEFAULT_PROFILE", "SET_HELP", "VERSION_HELP", "bundled_profiles", "default",
+           "profile_default", "profile_help", "profile_values"]
+
+#: Help of the ``--set KEY=VALUE`` option of every command that takes a profile.
+SET_HELP = ("Change one profile field, repeatable: KEY=VALUE, KEY the field's dotted place in the "
+            "profile's TOML (fit.steps=300, tasks.count=3, navigation.estimators=ours,gt, "
+            "levels=house-1,house-2, navigation.episode.max_steps=300); checked as the profile's "
+            "own fields, stored with the run and part of every cache key it affects. Named "
+            "options (--tasks, --steps...) win over --set.")
 
 
 def default(text: str) -> str:

@@ -92,7 +92,10 @@ DEFAULT_PRESET = "paper"
 def get_preset(name: str, where: str = "[scoring] preset") -> ScoringPreset:
     """The preset called ``name``; :class:`ConfigError` naming ``where`` and the choices."""
     if not isinstance(name, str) or name not in PRESETS:
-        raise ConfigError(f"{where}: unknown scoring preset {name!r}; choose one of {', '.join(PRESETS)}")
+        from navbench.names import did_you_mean
+
+        raise ConfigError(f"{where}: unknown scoring preset {name!r}{did_you_mean(name, PRESETS)}; "
+                          f"choose one of {', '.join(PRESETS)}")
     return PRESETS[name]
 
 

@@ -100,11 +100,26 @@ class ArtifactInfo:
     config: dict
 
 
-class ArtifactStore:
-    """A directory of verified, content-addressed stage artifacts (see the module docstring)."""
+#: The stage cache of a project: ``results/cache`` of the working directory...
+DEFAULT_CACHE = "results/cache"
+#: ... unless this environment variable names another folder (one cache shared by project
+#: folders; docs/reference/overrides.md says what is and is not shared).
+CACHE_ENV = "NAVBENCH_CACHE"
 
-    def __init__(self, root: str | Path = "results/cache"):
-        self.root = Path(root)
+
+def default_cache_root() -> Path:
+    """``$NAVBENCH_CACHE`` when set, else ``results/cache`` (of the working directory)."""
+    import os
+
+    return Path(os.environ.get(CACHE_ENV) or DEFAULT_CACHE).expanduser()
+
+
+class ArtifactStore:
+    """A directory of verified, content-addressed stage artifacts (see the module docstring);
+    ``root`` ``None``: :func:`default_cache_root`."""
+
+    def __init__(self, root: str | Path | None = None):
+        self.root = Path(root) if root is not None else default_cache_root()
 
     # ------------------------------------------------------------------ paths and lookup
     def path(self, stage: str, key: str) -> Path:

@@ -94,7 +94,9 @@ def _check_str(v: Any, choices: tuple[str, ...] | None = None) -> None:
     if not isinstance(v, str):
         raise _Invalid(f"expected a string, got {v!r}")
     if choices is not None and v not in choices:
-        raise _Invalid(f"unknown value {v!r}; choose one of {list(choices)}")
+        from navbench.names import did_you_mean
+
+        raise _Invalid(f"unknown value {v!r}{did_you_mean(v, choices)}; choose one of {list(choices)}")
 
 
 def _check_names(v: Any, kind: str, known: Callable[[], list[str]] | None) -> None:
@@ -107,7 +109,9 @@ def _check_names(v: Any, kind: str, known: Callable[[], list[str]] | None) -> No
     seen = set()
     for x in v:
         if names is not None and x not in names:
-            raise _Invalid(f"unknown {kind} {x!r} (known: {', '.join(names)})")
+            from navbench.names import did_you_mean
+
+            raise _Invalid(f"unknown {kind} {x!r}{did_you_mean(x, names)} (known: {', '.join(names)})")
         if not is_safe_name(x):
             raise _Invalid(f"{x!r} is not a safe {kind} name ({SAFE_NAME_RULE})")
         if x in seen:
@@ -296,7 +300,9 @@ def _check_options(options: Any, section_of: Callable[[str], str] | None = None,
     for est, opts in options.items():
         section = section_of(est) if section_of is not None else f"[navigation.options.{est}]"
         if est not in known:
-            raise _Invalid(f"{section}: unknown estimator {est!r} (known: {', '.join(known)})")
+            from navbench.names import did_you_mean
+
+            raise _Invalid(f"{section}: unknown estimator {est!r}{did_you_mean(est, known)} (known: {', '.join(known)})")
         if not isinstance(opts, dict):
             raise _Invalid(f"{section}: expected a table of options, got {opts!r}")
         for reserved in ("seed", "vmap", "intrinsics", "camera_height", "renderer"):

@@ -14,7 +14,7 @@ import numpy as np
 from navbench.report.build import MapLoader, TrajectoryLoader
 
 
-def store_loaders(cache_root: str | Path = "results/cache") -> tuple[TrajectoryLoader, MapLoader]:
+def store_loaders(cache_root: str | Path | None = None) -> tuple[TrajectoryLoader, MapLoader]:
     """``(load_trajectory, load_map)`` reading verified artifacts of the stage cache: episode
     records (``episode`` stage) and fitted maps (``fit-map`` stage)."""
     from navbench.pipeline.cache import ArtifactStore

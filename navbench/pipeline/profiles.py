@@ -264,26 +264,80 @@ def available_profiles() -> list[str]:
     return sorted(p.stem for p in PROFILES_DIR.glob("*.toml"))
 
 
-def load_profile(name_or_path: str | None = None) -> Profile:
-    """Load a bundled profile by name, or a TOML file by path (default: ``quick``)."""
-    name_or_path = name_or_path or DEFAULT_PROFILE
-    p = Path(name_or_path)
-    if p.suffix == ".toml" and p.is_file():
-        path = p
-    else:
-        path = PROFILES_DIR / f"{name_or_path}.toml"
-        if not is_safe_name(name_or_path) or not path.is_file():
-            raise ConfigError(f"--profile: unknown profile {name_or_path!r}; choose one of "
-                              f"{available_profiles()} or give the path of a .toml file")
+def _read_toml(path: Path) -> dict[str, Any]:
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML ({e})") from None
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not valid TOML (not UTF-8 text)") from None
     except OSError as e:
         raise ConfigError(f"{path}: cannot read the profile ({e.strerror or e})") from None
-    return profile_from_dict(doc, str(path))
+
+
+def _is_path(name_or_path: str) -> bool:
+    """A profile argument naming a file (``.toml`` or a path separator), not a bundled name."""
+    return name_or_path.endswith(".toml") or "/" in name_or_path or "\\" in name_or_path
+
+
+def profile_path(name_or_path: str, where: str = "--profile", relative_to: Path | None = None) -> Path:
+    """The TOML file of a bundled profile name or a path (relative to ``relative_to``, else to
+    the working directory); a missing file or an unknown name is a :class:`ConfigError` naming
+    ``where`` (with the nearest bundled names for a misspelt one)."""
+    if _is_path(name_or_path):
+        path = Path(name_or_path).expanduser()
+        if relative_to is not None and not path.is_absolute():
+            path = relative_to / path
+        if not path.is_file():
+            what = "is a folder, not a .toml file" if path.is_dir() else "no such file"
+            raise ConfigError(f"{where} {name_or_path}: {what}")
+        if path.suffix != ".toml":
+            raise ConfigError(f"{where} {name_or_path}: not a profile (a profile file ends in .toml)")
+        return path
+    path = PROFILES_DIR / f"{name_or_path}.toml"
+    if not is_safe_name(name_or_path) or not path.is_file():
+        from navbench.names import did_you_mean
+
+        raise ConfigError(f"{where}: unknown profile {name_or_path!r}{did_you_mean(name_or_path, available_profiles())}; "
+                          f"choose one of {available_profiles()} or give the path of a .toml file")
+    return path
+
+
+def _merge(base: dict[str, Any], top: dict[str, Any]) -> dict[str, Any]:
+    """``top`` over ``base``: tables merged key by key (recursively), anything else replaced."""
+    out = dict(base)
+    for k, v in top.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def profile_document(path: Path, _chain: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """The TOML document of the profile at ``path`` with its ``extends`` resolved: the parent's
+    document (a bundled name, or a path relative to the extending file) under this file's keys,
+    tables merged key by key; ``name`` is the file's own (default: the file's stem, never the
+    parent's). A cycle is a :class:`ConfigError` naming the chain."""
+    chain = (*_chain, path.resolve())
+    doc = _read_toml(path)
+    parent = doc.pop("extends", None)
+    if parent is not None:
+        if not isinstance(parent, str) or not parent:
+            raise ConfigError(f"{path}: extends: expected a bundled profile name or a .toml path, got {parent!r}")
+        ppath = profile_path(parent, f"{path}: extends", relative_to=path.parent)
+        if ppath.resolve() in chain:
+            names = " -> ".join(p.name for p in (*chain, ppath.resolve()))
+            raise ConfigError(f"{path}: extends makes a cycle: {names}")
+        base = profile_document(ppath, chain)
+        base.pop("name", None)
+        doc = _merge(base, doc)
+    doc.setdefault("name", path.stem)
+    return doc
+
+
+def load_profile(name_or_path: str | None = None) -> Profile:
+    """Load a bundled profile by name, or a TOML file by path (default: ``quick``); ``extends``
+    is resolved (:func:`profile_document`)."""
+    path = profile_path(name_or_path or DEFAULT_PROFILE)
+    return profile_from_dict(profile_document(path), str(path))
 
 
 def override(profile: Profile, **changes: Any) -> Profile:

@@ -4,16 +4,17 @@ The library entry point behind ``navbench all`` and ``navbench run-navigation``:
 
     from navbench.pipeline.run import run_profile
 
-    result = run_profile("quick", workers=2)          # builds or reuses every cached stage
+    result = run_profile("quick", workers=2, progress=True)   # stage lines and bars, as the CLI
     print(result.scores[["level", "estimator", "noise", "success_rate", "spl"]])
-    print(result.report_path)                          # results/report/index.html
+    print(result.report_path)                          # results/report/index.html, as `navbench all`
 
 :func:`recorded_run` records a run's start, finish and failure in the results database (one
 row of ``runs``: done, failed or interrupted) and names the artifacts it touched as a cache ref
 (a gc root); ``run-navigation``, ``all``, ``track-eval`` and ``bench`` all go through it.
 
 Progress is reported through a :class:`Progress` (log lines, progress bars); the default
-:class:`SilentProgress` prints nothing, the CLI passes its rich console UI.
+:class:`SilentProgress` prints nothing, ``progress=True`` draws the CLI's stage lines and rich
+bars, and a function receives the same lines as text (:class:`navbench.pipeline.console.CallbackProgress`).
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ if TYPE_CHECKING:
 
 #: How far :func:`run_profile` goes: the episodes only, or also the score table and the report.
 UNTIL = ("navigation", "score", "report")
+#: Where :func:`run_profile` publishes the report by default: where ``navbench all`` does.
+DEFAULT_REPORT_DIR = "results/report"
+_UNSET: Any = object()
 
 
 class Progress(Protocol):
@@ -62,7 +66,7 @@ class SilentProgress:
 
 
 def stage_context(progress: Progress | None = None, db: "ResultsDB | None" = None,
-                  force: bool | set[str] = False, cache_root: str | Path = "results/cache",
+                  force: bool | set[str] = False, cache_root: str | Path | None = None,
                   levels_dir: str | Path = "levels", tasks_dir: str | Path = "tasks") -> "StageContext":
     """A :class:`~navbench.pipeline.stages.StageContext` reporting through ``progress``.
 
@@ -110,6 +114,8 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     """
     from navbench.config import config_hash, to_jsonable
 
+    from navbench.errors import ConfigError, LevelError
+
     cfg = to_jsonable(config)
     run_id = db.start_run(profile, command, cfg, config_hash(cfg))
     status = "failed"
@@ -119,8 +125,15 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     except KeyboardInterrupt:
         status = "interrupted"
         raise
+    except (ConfigError, LevelError):
+        # bad input (a misspelt level, an option the stage refuses): a run that stored nothing
+        # is not recorded as one (issue 35 §5); one that stored rows stays, marked failed
+        if db.discard_run(run_id):
+            status = None
+        raise
     finally:
-        db.finish_run(run_id, status)
+        if status is not None:
+            db.finish_run(run_id, status)
         if ctx is not None and ref_name and ctx.used:
             ctx.store.set_ref(ref_name, ctx.used)
 
@@ -150,6 +163,12 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
         if earlier:
             ctx.log(f"run {run_id} resumes run(s) {', '.join(map(str, earlier))} of the same setup, "
                     "which did not finish (score --run latest takes them together)")
+    if profile.map_source == "fit":
+        from navbench.track.registry import uses_map
+
+        if not any(uses_map(e) for e in profile.estimators):  # issue 35: say why a map is fitted
+            ctx.log(f"fit-map: {', '.join(profile.estimators)} track without the map, but the agent "
+                    "plans its path on it; --map true plans on the true geometry and fits nothing")
     inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
     cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
                            seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
@@ -225,10 +244,10 @@ class RunResult:
 
 def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | str | None" = None,
                 executor: str = "local", workers: int | None = None, address: str | None = None,
-                chunk_size: int | None = None, progress: Progress | None = None,
-                until: str = "report", report_dir: str | Path | None = None,
-                cache_root: str | Path = "results/cache", command: str | None = None,
-                ref_name: str = "all") -> RunResult:
+                chunk_size: int | None = None, progress: "Progress | bool | Callable[[str], None] | None" = None,
+                until: str = "report", report_dir: str | Path | None = _UNSET,
+                cache_root: str | Path | None = None, command: str | None = None,
+                ref_name: str = "all", sets: list[str] | None = None) -> RunResult:
     """Run a profile end to end: make-level -> collect-views -> fit-map -> sample-tasks ->
     run-navigation -> score -> report, every stage cached and the run recorded.
 
@@ -237,7 +256,13 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     ``sqlite:///results/navbench.db``). ``executor``: ``local`` (a process pool of ``workers``;
     0 = CPU count, 1 = in this process) or ``ray`` (at ``address``). ``until``: ``navigation``,
     ``score`` or ``report`` (see :data:`UNTIL`). ``report_dir``: where to publish the report
-    (checked before any work; a folder that is new, empty or a report published before).
+    (checked before any work; a folder that is new, empty or a report published before); by
+    default ``results/report``, as ``navbench all``, so ``RunResult.report_path`` is the page
+    the CLI names; ``None``: not published (the path is the cached page's). ``progress``:
+    ``None``/``False`` silent (library use), ``True`` the CLI's stage lines and bars (stdout),
+    a function ``f(line)`` each stage line and bar state as text, or a :class:`Progress`.
+    ``sets``: ``--set`` items (``["fit.steps=300", "tasks.count=3"]``,
+    :mod:`navbench.pipeline.overrides`).
     Episodes already stored are skipped, so a rerun resumes; a run interrupted by Ctrl-C is
     recorded as interrupted and the ``KeyboardInterrupt`` propagates.
     """
@@ -249,9 +274,27 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
 
     if until not in UNTIL:
         raise ConfigError(f"until: unknown stage {until!r}; choose from {', '.join(UNTIL)}")
-    if report_dir is not None and until != "report":
+    if report_dir is _UNSET:
+        report_dir = DEFAULT_REPORT_DIR if until == "report" else None
+    elif report_dir is not None and until != "report":
         raise ConfigError("report_dir: a report is published only with until='report'")
+    if progress is True or callable(progress) and not hasattr(progress, "log"):
+        from navbench.pipeline.console import CallbackProgress, PipelineUI
+
+        if progress is not True:
+            progress = CallbackProgress(progress)
+        else:
+            with PipelineUI() as ui:
+                return run_profile(profile, db=db, executor=executor, workers=workers, address=address,
+                                   chunk_size=chunk_size, progress=ui, until=until, report_dir=report_dir,
+                                   cache_root=cache_root, command=command, ref_name=ref_name, sets=sets)
+    elif progress is False:
+        progress = None
     prof = profile if isinstance(profile, Profile) else load_profile(profile)
+    if sets:
+        from navbench.pipeline.overrides import apply_sets
+
+        prof = apply_sets(prof, sets, "sets")
     prof = override(prof, workers=workers)
     from navbench.pipeline.stages.online import online_profile
 

@@ -152,7 +152,7 @@ def export_trajectories(out_dir, db, store=None, *, run: int | None = None, leve
     if store is None:
         from navbench.pipeline.cache import ArtifactStore
 
-        store = ArtifactStore("results/cache")
+        store = ArtifactStore()
     runs = None if run is None else ([int(run)] if isinstance(run, (int, str)) else [int(r) for r in run])
     sel = {"level": _as_list(level), "estimator": _as_list(estimator), "noise": _as_list(noise)}
     tasks = None if task is None else [int(t) for t in _as_list(task)]
@@ -199,8 +199,8 @@ def export_trajectories(out_dir, db, store=None, *, run: int | None = None, leve
                      (("run", runs), *sel.items(), ("task", tasks)) if v)
     if not pairs:
         counts = db.table_counts()
-        why = (f"; {missing} matching trajectories are no longer in the cache {store.root} "
-               f"(cache gc?)" if missing else f"; the database holds {counts.get('episodes', 0)} "
+        why = (f"; {missing} matching trajectories are not in the cache {store.root}"
+               f"{_cache_hint(db, store)}" if missing else f"; the database holds {counts.get('episodes', 0)} "
                f"episodes and {counts.get('tracking', 0)} track-eval rows")
         raise ConfigError(f"export-trajectories: no stored trajectory matches "
                           f"{what or 'anything'} (source {source}){why}")
@@ -245,3 +245,16 @@ def _write_pairs(out: Path, pairs: list[tuple], dt: float) -> list[ExportedPair]
                                                 est_p.relative_to(out))))
     (out / "index.csv").write_text("\n".join(lines) + "\n")
     return exported
+
+
+def _cache_hint(db, store) -> str:
+    """Why trajectories may be missing from ``store``: a SQLite database in another project
+    folder than the cache's (its own cache is beside it: give ``--cache``), else a cache gc."""
+    url = str(getattr(db, "url", ""))
+    if url.startswith("sqlite:///"):
+        db_file = Path(url[len("sqlite:///"):].split("?", 1)[0]).expanduser().resolve()
+        beside = db_file.parent / "cache"
+        if beside.resolve() != store.root.resolve():
+            return (f" (the database {db_file} is another project's: its cache is likely {beside}; "
+                    f"give --cache DIR or set $NAVBENCH_CACHE)")
+    return " (removed by cache gc?)"

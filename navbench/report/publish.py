@@ -12,13 +12,15 @@ from pathlib import Path
 REPORT_MARKER = ".navbench-report"
 
 
-def protected_paths(db_url: str | None = None, cache_root: str | Path = "results/cache",
+def protected_paths(db_url: str | None = None, cache_root: str | Path | None = None,
                     levels_dir: str | Path = "levels", tasks_dir: str | Path = "tasks") -> list[Path]:
     """What a report must never be written over, into or around: the stage cache, the SQLite
     database file, the level and task folders."""
     from navbench.results.db import resolve_db_url
 
-    paths = [Path(cache_root), Path(levels_dir), Path(tasks_dir)]
+    from navbench.pipeline.cache import default_cache_root
+
+    paths = [Path(cache_root) if cache_root is not None else default_cache_root(), Path(levels_dir), Path(tasks_dir)]
     url = resolve_db_url(db_url)
     if url.startswith("sqlite:///"):
         db_file = url[len("sqlite:///"):].split("?", 1)[0]

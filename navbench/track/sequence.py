@@ -58,33 +58,109 @@ def track_frames(estimator, views, start_pose, increments) -> SequenceTrack:
     return SequenceTrack(est, step, render, estimate)
 
 
-def render_walk(level, frames: int, intrinsics, seed: int = 0, camera_height: float | None = None,
-                noise: str = "tracking"):
-    """A sequence rendered by navbench: the first trajectory of
-    :func:`navbench.track.study.record_trajectories` (``frames - 1`` controls with the
-    tracking-study noise from ``seed``) rendered exactly by the ray-cast camera at every true
-    pose, as :class:`~navbench.worldmodel.views.Views` (``frames`` views in trajectory order;
-    export it with :func:`navbench.worldmodel.tum.export_views` for a TUM sequence)."""
-    from navbench.geometry import CAMERA_HEIGHT
-    from navbench.sim.camera import RaycastCamera
-    from navbench.track.study import record_trajectories
-    from navbench.worldmodel.views import Views, check_views_memory
+#: Walks :func:`render_walk` draws: the planner's shortest paths between sampled tasks, or the
+#: tracking study's random walk.
+WALKS = ("planner", "random")
+
+
+def planner_walk(level, frames: int, seed: int = 0, noise: str = "none") -> np.ndarray:
+    """``(frames, 3)`` true poses (world metres, radians) of one continuous walk: the simulator
+    driven by the path controller along the shortest collision-free paths (agent radius) from
+    the first sampled task's start to its target, then on to the next task's target, and so on
+    (tasks of :func:`navbench.plan.tasks.sample_tasks` with ``seed``, more drawn when the walk
+    outlasts them). ``noise``: the simulator's actuation noise (``none``: the path exactly);
+    a step that collides re-plans from where the robot is. Deterministic for a given ``seed``."""
+    from navbench.nav.controller import control_towards
+    from navbench.geometry import AGENT_RADIUS
+    from navbench.plan.shortest import graph_for_level, shortest_path
+    from navbench.plan.tasks import sample_tasks
+    from navbench.sim.world import Simulator
 
     if frames < 2:
         raise ValueError(f"a sequence needs at least 2 frames, got {frames}")
+    graph = graph_for_level(level, 1.1 * AGENT_RADIUS)  # a margin: paths graze corners
+    batch = max(4, frames // 40)
+    tasks, drawn = list(sample_tasks(level, count=batch, seed=seed)), 1
+    sim = Simulator(level, noise=noise, seed=int(seed), intrinsics=None)
+    sim.reset(np.asarray(tasks[0].start, dtype=np.float64))
+    poses = [sim.pose.copy()]
+    task, path, wp, idle = 0, None, 1, 0
+    while len(poses) < frames:
+        if path is None or wp >= len(path):
+            if path is not None:
+                task += 1
+            if task >= len(tasks):  # the walk outlasts the tasks: draw the next batch
+                tasks += sample_tasks(level, count=batch, seed=int(seed) + 7919 * drawn)
+                drawn += 1
+            _, path = shortest_path(graph, sim.pose[:2], np.asarray(tasks[task].target, dtype=np.float64)[:2])
+            path, wp = np.asarray(path, dtype=np.float64).reshape(-1, 2), 1
+            continue
+        if np.hypot(*(path[wp] - sim.pose[:2])) < 1e-3:
+            wp += 1
+            continue
+        res = sim.step(control_towards(sim.pose, path[wp]))
+        if res.collided:  # re-plan from here (the pose the simulator kept)
+            sim.reset(poses[-1])
+            path, wp, task = None, 1, task - 1
+            idle += 1
+            if idle > 50:
+                raise ValueError(f"{level.name}: the walk is stuck at {poses[-1][:2]}")
+            continue
+        idle = 0
+        poses.append(sim.pose.copy())
+    return np.array(poses[:frames])
+
+
+def render_poses(level, poses, intrinsics, camera_height: float | None = None, seed: int = 0,
+                 meta: dict | None = None):
+    """The exact ray-cast views of ``level`` at the planar ``poses (N, 3)`` in order, as
+    :class:`~navbench.worldmodel.views.Views` (export with :func:`navbench.worldmodel.tum.export_views`)."""
+    from navbench.geometry import CAMERA_HEIGHT
+    from navbench.sim.camera import RaycastCamera
+    from navbench.worldmodel.views import Views, check_views_memory
+
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    frames = len(poses)
     check_views_memory(frames, intrinsics, "render a sequence")
     cam_h = CAMERA_HEIGHT if camera_height is None else float(camera_height)
-    traj = record_trajectories(level, 1, frames - 1, noise=noise, seed=seed)[0]
     camera = RaycastCamera(level, intrinsics, cam_h)
     H, W = intrinsics.shape
     rgb = np.empty((frames, H, W, 3), np.uint8)
     depth = np.empty((frames, H, W), np.float32)
     valid = np.empty((frames, H, W), bool)
-    for n, pose in enumerate(traj.true_poses):
+    for n, pose in enumerate(poses):
         fr = camera.render(pose)
         rgb[n] = np.clip(np.rint(fr.rgb * 255.0), 0, 255).astype(np.uint8)
         depth[n] = fr.depth
         valid[n] = fr.valid
     box = ((0.0, 0.0, 0.0), (float(level.width), float(level.depth), float(level.height)))
-    return Views(traj.true_poses.copy(), intrinsics, cam_h, rgb, depth, valid, level.name, int(seed),
-                 box, {"walk_seed": int(seed), "noise": noise})
+    return Views(poses.copy(), intrinsics, cam_h, rgb, depth, valid, level.name, int(seed), box,
+                 dict(meta or {}))
+
+
+def render_walk(level, frames: int, intrinsics, seed: int = 0, camera_height: float | None = None,
+                noise: str = "tracking", walk: str = "random"):
+    """A sequence rendered by navbench, as :class:`~navbench.worldmodel.views.Views` (``frames``
+    views in walk order; export it with :func:`navbench.worldmodel.tum.export_views` for a TUM
+    sequence), rendered exactly by the ray-cast camera at every true pose of the walk:
+
+    * ``walk="random"``: the first trajectory of :func:`navbench.track.study.record_trajectories`
+      (``frames - 1`` controls with the simulator's ``noise`` from ``seed``);
+    * ``walk="planner"``: :func:`planner_walk` (the shortest paths between sampled tasks, driven
+      by the simulator with ``noise``).
+    """
+    from navbench.track.study import record_trajectories
+
+    if frames < 2:
+        raise ValueError(f"a sequence needs at least 2 frames, got {frames}")
+    if walk not in WALKS:
+        raise ValueError(f"walk: expected one of {WALKS}, got {walk!r}")
+    from navbench.worldmodel.views import check_views_memory
+
+    check_views_memory(frames, intrinsics, "render a sequence")  # before the walk is driven
+    if walk == "random":
+        poses = record_trajectories(level, 1, frames - 1, noise=noise, seed=seed)[0].true_poses
+    else:
+        poses = planner_walk(level, frames, seed, noise)
+    meta = {"walk_seed": int(seed), "noise": noise, **({} if walk == "random" else {"walk": walk})}
+    return render_poses(level, poses, intrinsics, camera_height, seed, meta)

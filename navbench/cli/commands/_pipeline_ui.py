@@ -9,88 +9,7 @@ from __future__ import annotations
 import sys
 import time
 
-from rich.console import Console
-from rich.progress import (BarColumn, MofNCompleteColumn, Progress, ProgressColumn, SpinnerColumn,
-                           TextColumn, TimeRemainingColumn)
-from rich.text import Text
-
-
-class RateColumn(ProgressColumn):
-    """Items per second since the bar started (``ep/s``, ``views/s``...), frozen when it ends."""
-
-    def __init__(self, unit: str = "it"):
-        super().__init__()
-        self.unit = unit
-
-    def render(self, task) -> Text:
-        t0, t1 = task.fields.get("t0"), task.fields.get("t_last")
-        rate = task.completed / (t1 - t0) if t0 is not None and t1 and t1 > t0 else 0.0
-        unit = task.fields.get("unit", self.unit)
-        return Text(f"{rate:.2f} {unit}/s", style="progress.data.speed")
-
-
-class PipelineUI:
-    """Log lines and progress bars on one console (stderr when stdout carries JSON)."""
-
-    def __init__(self, json_mode: bool = False, quiet: bool = False):
-        self.console = Console(stderr=json_mode, highlight=False, soft_wrap=True)  # as cli._common's
-        self.quiet = quiet
-        self.progress = Progress(
-            SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(bar_width=24),
-            MofNCompleteColumn(), RateColumn(), TextColumn("{task.fields[extra]}"),
-            TextColumn("ETA"), TimeRemainingColumn(compact=True),
-            console=self.console, transient=False, disable=quiet,
-        )
-        self._shown = False  # the display starts with the first bar (_show)
-
-    def __enter__(self) -> "PipelineUI":
-        return self
-
-    def __exit__(self, *exc) -> bool:
-        if self._shown:
-            self.progress.stop()
-            self._shown = False
-        return False
-
-    def _show(self) -> None:
-        """Start the display with the first bar, not on entry: a display stopped without ever
-        showing a bar still writes a blank line (rich), e.g. before a command's error line."""
-        if not self._shown:
-            self.progress.start()
-            self._shown = True
-
-    def log(self, msg: str) -> None:
-        if self.quiet:
-            return
-        style = "dim" if ": cached " in msg or " from " in msg else None
-        if msg.startswith("warning"):
-            style = "yellow"
-        self.console.print(msg, style=style, highlight=False, markup=False)
-
-    def bar(self, description: str, total: int | None, unit: str = "it"):
-        """A new bar; returns ``update(done, total=None, loss=None)``."""
-        self._show()
-        tid = self.progress.add_task(description, total=total, extra="", unit=unit, t0=time.perf_counter())
-
-        def update(done: int, total_: int | None = None, loss: float | None = None) -> None:
-            fields = {"completed": done, "t_last": time.perf_counter()}
-            if total_ is not None:
-                fields["total"] = total_
-            if loss is not None:
-                fields["extra"] = f"loss {loss:.4f}"
-            self.progress.update(tid, **fields)
-
-        return update
-
-    def counter(self, description: str, total: int, unit: str = "ep"):
-        """A bar driven by increments: returns ``(advance(n), set_total(total))``."""
-        self._show()
-        tid = self.progress.add_task(description, total=total, extra="", unit=unit, t0=time.perf_counter())
-
-        def advance(n: int) -> None:
-            self.progress.update(tid, advance=n, t_last=time.perf_counter())
-
-        return advance, (lambda t: self.progress.update(tid, total=t))
+from navbench.pipeline.console import PipelineUI, RateColumn  # noqa: F401 -- the commands' names
 
 
 def run_with_ui(body, json_mode: bool = False):
@@ -107,11 +26,12 @@ def run_with_ui(body, json_mode: bool = False):
         raise SystemExit(130) from None
 
 
-def load_profile_with(profile: str | None, **overrides):
-    """Load a profile and apply the CLI's non-None overrides."""
+def load_profile_with(profile: str | None, sets: list[str] | None = None, **overrides):
+    """Load a profile, apply the ``--set KEY=VALUE`` items, then the CLI's non-None overrides."""
+    from navbench.pipeline.overrides import apply_sets
     from navbench.pipeline.profiles import load_profile, override
 
-    return override(load_profile(profile), **overrides)
+    return override(apply_sets(load_profile(profile), sets), **overrides)
 
 
 def command_line() -> str:

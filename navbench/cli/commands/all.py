@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, profile_default, profile_help
+from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, SET_HELP, profile_default, profile_help
 from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.artifacts import PAIRED_FILE  # light
 from navbench.pipeline.profiles import MAX_WORKERS  # light
@@ -70,6 +70,7 @@ def register(app: typer.Typer) -> None:
     @app.command("all")
     def all_(
         profile: str = typer.Option(DEFAULT_PROFILE, "--profile", help=profile_help("Profile", shows_default=True)),
+        sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
         workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count "
                                  f"{profile_default('workers')}."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
@@ -94,13 +95,16 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import run_with_ui
         from navbench.pipeline.run import run_profile
 
-        if condition:  # checked before any work, as run-navigation's
+        if condition or sets:  # checked before any work, as run-navigation's
+            from navbench.pipeline.overrides import apply_sets
             from navbench.pipeline.profiles import load_profile, override
             from navbench.sim.conditions import conditions_to_episode, parse_condition_args
 
-            prof = load_profile(profile)
-            chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
-            profile = override(prof, episode={**prof.episode, **chosen})
+            prof = apply_sets(load_profile(profile), sets)
+            if condition:
+                chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
+                prof = override(prof, episode={**prof.episode, **chosen})
+            profile = prof
         t0 = time.perf_counter()
         result = run_with_ui(lambda ui: run_profile(profile, db=db, executor=executor, workers=workers,
                                                     address=address, progress=ui, report_dir=report_dir,

@@ -85,7 +85,7 @@ def bench(
                                 help="Local worker processes of the end-to-end run (0: CPU count)."),
     e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0, max=MAX_TASKS,
                                   help=f"Tasks of the end-to-end run, 0 skips it {default('2 with --quick, else 6')}."),
-    cache: str = typer.Option("results/cache", "--cache", help="Stage cache to take a fitted map from."),
+    cache: str = typer.Option("results/cache", "--cache", envvar="NAVBENCH_CACHE", help="Stage cache to take a fitted map from."),
     map_file: str = typer.Option(None, "--map", help="A voxel map file (.npz) to time instead of the "
                                  "newest fitted map of the level in --cache: bench runs on the same "
                                  "file compare, whatever was fitted since."),

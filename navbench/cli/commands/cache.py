@@ -32,7 +32,7 @@ def _human(n: int) -> str:
 @cache_app.command("ls")
 def ls(
     stage: str = typer.Option(None, "--stage", help="Only this stage."),
-    root: str = typer.Option("results/cache", "--root", help="Cache directory."),
+    root: str = typer.Option("results/cache", "--root", envvar="NAVBENCH_CACHE", help="Cache directory."),
 ):
     """List cached artifacts: stage, key, size, creation time and input keys."""
     from rich.markup import escape
@@ -66,7 +66,8 @@ def gc(
     keep_newest: int = typer.Option(1, "--keep-newest", min=0,
                                     help="Also keep the N newest artifacts of every stage."),
     dry_run: bool = typer.Option(False, "--dry-run", help="List exactly what would be removed; remove nothing."),
-    root: str = typer.Option("results/cache", "--root", help="Cache directory (it must be a navbench cache)."),
+    root: str = typer.Option("results/cache", "--root", envvar="NAVBENCH_CACHE",
+                             help="Cache directory (it must be a navbench cache)."),
 ):
     """Remove artifacts no run refers to, and stale temporary directories.
 

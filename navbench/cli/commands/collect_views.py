@@ -5,16 +5,16 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import profile_default, profile_help
+from navbench.cli._help import SET_HELP, profile_default, profile_help
 
 
 def _collect(level: str, count: int | None, camera: str | None, seed: int | None, profile: str | None,
-             force: bool) -> None:
+             force: bool, sets: list[str] | None = None) -> None:
     from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with
     from navbench.pipeline.run import stage_context
     from navbench.pipeline.stages import LevelConfig, ViewsConfig, collect_views_stage, make_level_stage
 
-    prof = load_profile_with(profile, camera=camera)
+    prof = load_profile_with(profile, sets, camera=camera)
     cfg = ViewsConfig(count if count is not None else prof.views, prof.camera,
                       seed if seed is not None else prof.views_seed)
     # refuse a collection that cannot fit in memory before the level or anything else is written
@@ -38,9 +38,10 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(None, "--seed", min=0, help=f"Pose sampling seed {profile_default('views_seed')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
+        sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
     ):
         """Collect views uniformly in the level's free space into the cache (keyed, reused)."""
-        _collect(level, count, camera, seed, profile, force)
+        _collect(level, count, camera, seed, profile, force, sets)
 
     @app.command("collect-5000-views")
     def collect_5000_views(
@@ -50,6 +51,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(None, "--seed", min=0, help=f"Pose sampling seed {profile_default('views_seed')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
+        sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
     ):
         """Alias of collect-views with --count 5000 (the paper's view count)."""
-        _collect(level, count, camera, seed, profile, force)
+        _collect(level, count, camera, seed, profile, force, sets)

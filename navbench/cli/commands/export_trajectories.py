@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console, parse_list, print_json
-from navbench.cli._help import DB_HELP
+from navbench.cli._help import DB_HELP, default
 
 
 def register(app: typer.Typer) -> None:
@@ -28,6 +28,8 @@ def register(app: typer.Typer) -> None:
         dt: float = typer.Option(0.1, "--dt", help="Seconds between poses (timestamp = step x dt)."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
         db: str = typer.Option(None, "--db", help=DB_HELP),
+        cache: Path = typer.Option(None, "--cache", envvar="NAVBENCH_CACHE", help="Stage cache holding "
+                                   f"the trajectories {default('results/cache, or $NAVBENCH_CACHE')}."),
     ):
         """Write true and estimated trajectories as TUM pose files, one pair per trajectory.
 
@@ -40,12 +42,15 @@ def register(app: typer.Typer) -> None:
         import dataclasses
 
         from navbench.errors import ConfigError
+        from navbench.pipeline.cache import ArtifactStore
         from navbench.pipeline.run import open_db
         from navbench.pipeline.tracking import export_trajectories
 
         from navbench.outpath import check_output
 
         check_output(out, "DIR", kind="dir", example="trajectories")  # before the database is read
+        if cache is not None and not cache.is_dir():
+            raise ConfigError(f"--cache {cache}: no such folder (a stage cache, e.g. results/cache)")
         try:
             tasks = [int(t) for t in parse_list(task)] or None
         except ValueError:
@@ -61,7 +66,8 @@ def register(app: typer.Typer) -> None:
             with exclusive_output(out, "DIR", "the export") as tmp:  # one of two racing exports wins
                 pairs = export_trajectories(tmp, rdb, run=run_id, level=parse_list(level) or None,
                                             estimator=parse_list(estimator) or None,
-                                            noise=parse_list(noise) or None, task=tasks, source=source, dt=dt)
+                                            noise=parse_list(noise) or None, task=tasks, source=source, dt=dt,
+                                            store=ArtifactStore(cache))
             pairs = [dataclasses.replace(p, gt=out / p.gt.relative_to(tmp), est=out / p.est.relative_to(tmp))
                      for p in pairs]
         if json_out:

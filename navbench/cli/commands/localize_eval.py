@@ -6,7 +6,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, print_json
-from navbench.cli._help import DB_HELP, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, profile_help
 
 #: The object-change difficulties ``--changes`` accepts (RNR-Map Table 2).
 OC_NAMES = ("OC1", "OC2", "OC3", "OC4")
@@ -21,6 +21,7 @@ def register(app: typer.Typer) -> None:
                                  "if missing); true: the voxelised true geometry; or a map file."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
                                                                           "build the map with --map fit")),
+        sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
         changes: str = typer.Option(None, "--changes", help="Object-change difficulty OC1..OC4: "
                                     "queries rendered in a changed level (furniture added, moved, "
                                     "removed), localised in the original's map."),
@@ -57,7 +58,13 @@ def register(app: typer.Typer) -> None:
             raise ConfigError(f"--changes: expected one of {', '.join(OC_NAMES)}, got {changes!r}")
         changes = changes.upper() if changes else None
         camera_by_name(camera)
-        prof = load_profile(profile) if map_ == "fit" else None
+        from navbench.errors import ConfigError
+
+        if sets and map_ != "fit":
+            raise ConfigError(f"--set: changes the profile's map settings, which only --map fit reads (--map {map_})")
+        from navbench.pipeline.overrides import apply_sets
+
+        prof = apply_sets(load_profile(profile), sets) if map_ == "fit" else None
         cfg = LocalizeEvalConfig(queries=queries, seed=seed, camera=camera, changes=changes,
                                  localizer=_localizer_config(option), sampling=sampling).resolved()
         t0 = time.perf_counter()

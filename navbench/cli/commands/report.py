@@ -13,7 +13,7 @@ def report(
     out: str = typer.Option("results/report", "--out", help="Output folder (index.html + CSV files)."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                            help=DB_HELP),
-    cache: str = typer.Option("results/cache", "--cache",
+    cache: str = typer.Option("results/cache", "--cache", envvar="NAVBENCH_CACHE",
                               help="Stage cache holding the trajectories and maps."),
     levels: str = typer.Option("levels", "--levels", help="Folder of the level files."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP, default, profile_default, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, default, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
@@ -50,6 +50,11 @@ def register(app: typer.Typer) -> None:
                                             "truncate, direction_limit=believed|true, collision_check=swept|"
                                             "endpoint (overrides the profile's \\[conditions] table)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile")),
+        sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        option: list[str] = typer.Option(None, "--option", "-o", metavar="ESTIMATOR.KEY=VALUE",
+                                         help="Estimator option, repeatable (as track-eval's): "
+                                         "-o ours.optimizer=adam; over the profile's "
+                                         "\\[navigation.options.<estimator>] table."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                                help=DB_HELP),
     ):
@@ -60,7 +65,9 @@ def register(app: typer.Typer) -> None:
         profile's settings (cached). Resumable: a rerun with the same arguments skips the
         episodes already stored and finishes the rest.
         """
+        from navbench.cli._common import parse_estimator_options
         from navbench.cli.commands._pipeline_ui import command_line, run_with_ui
+        from navbench.pipeline.overrides import apply_sets
         from navbench.pipeline.profiles import load_profile, override
         from navbench.pipeline.run import run_profile
         from navbench.sim.conditions import (CONDITIONS, conditions_to_episode, episode_conditions,
@@ -68,7 +75,10 @@ def register(app: typer.Typer) -> None:
 
         from navbench.pipeline.stages.online import ONLINE_ESTIMATOR, is_online
 
-        base = load_profile(profile)
+        base = apply_sets(load_profile(profile), sets)
+        from navbench.pipeline.stages.level import check_typed_levels
+
+        check_typed_levels(levels, base.levels)  # a typo is not a new level from level_seed
         if estimators is None and is_online(map_source or base.map_source):
             estimators = ONLINE_ESTIMATOR  # the unknown-house loop's pose model: the true pose
         # an option given but empty (--estimators ',,') is an error, not the profile's list
@@ -80,6 +90,8 @@ def register(app: typer.Typer) -> None:
         if condition:
             chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
             prof = override(prof, episode={**prof.episode, **chosen})
+        if option:
+            prof = _with_options(prof, parse_estimator_options(option))
 
         result = run_with_ui(lambda ui: run_profile(prof, db=db, executor=executor, address=address,
                                                     chunk_size=chunk, progress=ui, until="navigation",
@@ -90,3 +102,25 @@ def register(app: typer.Typer) -> None:
         changed = {k: v for k, v in episode_conditions(prof.episode).items() if v != CONDITIONS[k].default}
         if changed:
             console.print("conditions: " + ", ".join(f"{k}={v}" for k, v in changed.items()), markup=False)
+
+
+def _with_options(prof, options: dict[str, dict]):
+    """``prof`` with ``-o`` estimator options over its ``[navigation.options.<estimator>]``;
+    an option of an estimator the run does not use is an error (it would change nothing)."""
+    from navbench.errors import ConfigError
+    from navbench.pipeline.profiles import override
+
+    for est, opts in options.items():
+        if est not in prof.estimators:
+            from navbench.names import did_you_mean
+
+            key = next(iter(opts))
+            raise ConfigError(f"--option {est}.{key}: {est!r} is not among the run's estimators "
+                              f"({', '.join(prof.estimators)}){did_you_mean(est, prof.estimators)}")
+    from navbench.pipeline.checks import check_estimator_options
+
+    check_estimator_options(options, "--option")  # named as typed, before the profile's label
+    merged = {k: dict(v) for k, v in prof.estimator_options.items()}
+    for est, opts in options.items():
+        merged[est] = {**merged.get(est, {}), **opts}
+    return override(prof, estimator_options=merged)

@@ -5,32 +5,9 @@ from __future__ import annotations
 import typer
 from rich.markup import escape
 
-from navbench.cli._common import console, parse_list, print_json
-from navbench.cli._help import DB_HELP, profile_help
+from navbench.cli._common import console, parse_estimator_options, parse_list, print_json
+from navbench.cli._help import DB_HELP, SET_HELP, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS  # light
-
-
-def _parse_options(items: list[str]) -> dict[str, dict]:
-    """``["ours.optimizer=adam", "emission.steps=100"]`` -> ``{"ours": {...}, "emission": {...}}``.
-
-    Values are read as JSON when possible (numbers, lists, true/false), else kept as strings.
-    """
-    import json
-
-    from navbench.errors import ConfigError
-
-    out: dict[str, dict] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        name, dot, opt = key.partition(".")
-        if not sep or not dot or not name or not opt:
-            raise ConfigError(f"--option expects ESTIMATOR.KEY=VALUE, got {item!r}")
-        try:
-            val = json.loads(value)
-        except json.JSONDecodeError:
-            val = value
-        out.setdefault(name.strip(), {})[opt.strip()] = val
-    return out
 
 
 def register(app: typer.Typer) -> None:
@@ -52,6 +29,7 @@ def register(app: typer.Typer) -> None:
                                  "file (map.npz format)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
                                                                           "build the map with --map fit")),
+        sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
         seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
         noise: str = typer.Option("tracking", "--noise", help="Noise level of the recorded "
                                   "trajectories: tracking (the paper's study), none, low, mid, high."),
@@ -99,14 +77,20 @@ def register(app: typer.Typer) -> None:
         from navbench.track.study import STUDY_EMISSION_OPTIONS, TrackingStudyConfig, summarise
 
         names = tuple(parse_list(estimators))
-        parsed_options = _parse_options(option)
+        parsed_options = parse_estimator_options(option)
         _check_estimators(names, parsed_options)  # before the level is built or anything recorded
         if map_ == "online":
             from navbench.track.slam import check_online
 
             for n in names:
                 check_online(n)
-        prof = load_profile(profile) if map_ == "fit" else None
+        from navbench.errors import ConfigError
+
+        if sets and map_ != "fit":
+            raise ConfigError(f"--set: changes the profile's map settings, which only --map fit reads (--map {map_})")
+        from navbench.pipeline.overrides import apply_sets
+
+        prof = apply_sets(load_profile(profile), sets) if map_ == "fit" else None
         from navbench.errors import ConfigError
         from navbench.pipeline.profiles import NOISE_NAMES
 

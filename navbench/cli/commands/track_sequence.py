@@ -64,6 +64,13 @@ def register(app: typer.Typer) -> None:
             res = track_sequence(directory, map_, cfg, out=out if out is not None else "default",
                                  db=rdb, command=command_line(), reading=reading)
         summary = {**res.summary(), "out": str(res.out), "stored": res.stored}
+        from navbench.pipeline.stages.sequence import motion_warning
+
+        warning = motion_warning(res.true_poses)
+        if warning is not None:  # on stderr: the JSON on stdout stays one object
+            from navbench.cli._common import err_console
+
+            err_console.print(warning, style="yellow", markup=False, highlight=False)
         if json_out:
             print_json(summary)
             return

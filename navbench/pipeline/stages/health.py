@@ -214,7 +214,7 @@ def sequence_health_threshold(ctx: StageContext | None, map_spec, map_key: str, 
     if ctx is None:
         from navbench.pipeline.cache import ArtifactStore
 
-        ctx = StageContext(ArtifactStore("results/cache"))
+        ctx = StageContext(ArtifactStore())
     spec = str(map_spec) if isinstance(map_spec, (str, Path)) else map_key
     views = calibration_views(ctx, spec, map_key, None)
     ref = health_calibration_stage(ctx, views, map_key, lambda: model,

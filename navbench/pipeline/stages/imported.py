@@ -100,7 +100,7 @@ def resolve_views(spec: str, ctx: StageContext | None = None, options: ImportOpt
     if ctx is None:
         from navbench.pipeline.cache import ArtifactStore
 
-        ctx = StageContext(ArtifactStore("results/cache"))
+        ctx = StageContext(ArtifactStore())
     stage, key = _find_views_key(ctx, spec, what)
     d = ctx.store.load(stage, key)
     views = load_views(d / VIEWS_FILE)

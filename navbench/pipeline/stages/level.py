@@ -55,7 +55,10 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         from navbench import levelgen as _lg  # light: numpy only
 
         if cfg.seed is None and cfg.name not in _lg.BENCHMARK_LEVELS:
-            raise LevelError(f"level {cfg.name!r}: no {committed} and no seed to generate it; make "
+            from navbench.names import did_you_mean
+
+            known = sorted({*_lg.BENCHMARK_LEVELS, *(q.stem for q in Path(ctx.levels_dir).glob("*.json"))})
+            raise LevelError(f"level {cfg.name!r}{did_you_mean(cfg.name, known)}: no {committed} and no seed to generate it; make "
                              f"it with `navbench make-level {cfg.name} --seed S` (or list it in a "
                              f"profile's levels with a level_seed)")
         if cfg.seed is None:  # a benchmark level ignores the seed: keep the key of seed 1
@@ -74,6 +77,9 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
         gen_cfg = {"level": to_jsonable(cfg), "generator": getattr(_lg, "GENERATOR_VERSION", 0)}
         origin = ("the benchmark's seed" if cfg.name in _lg.BENCHMARK_LEVELS
                   else f"seed {cfg.seed} (the profile's level_seed)")
+        if not Path(ctx.levels_dir).is_dir():  # likely the wrong folder: say what and where first
+            ctx.log(f"warning: {Path(ctx.levels_dir).resolve()} does not exist (not a project folder?): "
+                    f"level {cfg.name} is generated from {origin} into the cache {ctx.store.root}")
         ctx.log(f"make-level: no {committed}; {cfg.name} is generated from {origin}")
         path, _, cached = ctx.run("make-level", gen_cfg, {}, compute)
         f = path / "level.json"
@@ -89,3 +95,21 @@ def load_level_ref(ref: Ref):
     from navbench.levelio import load_level
 
     return load_level(ref.path, name=ref.name or None)
+
+
+def check_typed_levels(names, profile_levels, levels_dir: str | Path = "levels", where: str = "LEVELS") -> None:
+    """Level names typed on the command line: each must be a level file (``levels/NAME.json``),
+    a benchmark level or one of the profile's own levels (generated from its ``level_seed``);
+    anything else is a misspelling, refused with the nearest names rather than generated."""
+    from navbench import levelgen as _lg
+    from navbench.errors import LevelError
+    from navbench.names import did_you_mean
+
+    files = sorted(q.stem for q in Path(levels_dir).glob("*.json"))
+    for name in names or ():
+        if Path(name).suffix == ".json" or name in files or name in _lg.BENCHMARK_LEVELS or name in profile_levels:
+            continue
+        known = sorted({*files, *_lg.BENCHMARK_LEVELS})
+        raise LevelError(f"{where}: level {name!r}{did_you_mean(name, known)}: no {Path(levels_dir) / name}.json, "
+                         f"not a benchmark level nor one of the profile's levels; make it with "
+                         f"`navbench make-level {name} --seed S`")

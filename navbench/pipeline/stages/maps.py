@@ -168,7 +168,7 @@ def resolve_map(spec: str, ctx: StageContext | None = None, what: str = "--map")
         if ctx is None:
             from navbench.pipeline.cache import ArtifactStore
 
-            ctx = StageContext(ArtifactStore("results/cache"))
+            ctx = StageContext(ArtifactStore())
         try:
             stage, key = ctx.store.find(spec, MAP_STAGES)
         except ArtifactError as e:

@@ -92,6 +92,35 @@ def sequence_odometry(seq, cfg: TrackSequenceConfig) -> tuple[np.ndarray, str]:
     return relative_increments(poses), hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+#: How far beyond one step of the simulator's dynamics (MAX_STEP, MAX_TURN) the median motion
+#: between frames may go before track-sequence warns that the frames are not a sequence.
+MOTION_WARN_FACTOR = 4.0
+
+
+def motion_warning(poses) -> str | None:
+    """One line when the median frame-to-frame motion of the planar ``poses (N, 3)`` is far
+    beyond what the odometry model expects (one step of :mod:`navbench.sim.dynamics` per frame:
+    ``MAX_STEP`` m, ``MAX_TURN`` rad; :data:`MOTION_WARN_FACTOR` times either), else ``None``:
+    views sampled independently (collect-views) are no sequence, and tracking them is meaningless."""
+    import math
+
+    from navbench.geometry import wrap_angle
+    from navbench.sim.dynamics import MAX_STEP, MAX_TURN
+
+    p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    if len(p) < 2:
+        return None
+    d = np.diff(p, axis=0)
+    move = float(np.median(np.hypot(d[:, 0], d[:, 1])))
+    turn = float(np.median(np.abs(wrap_angle(d[:, 2]))))
+    if move <= MOTION_WARN_FACTOR * MAX_STEP and turn <= MOTION_WARN_FACTOR * MAX_TURN:
+        return None
+    return (f"warning: the median motion between frames is {move:.2f} m and {math.degrees(turn):.1f} deg, "
+            f"far beyond one step of the odometry model (<= {MAX_STEP:.2f} m, {math.degrees(MAX_TURN):.1f} "
+            "deg): the frames are not a continuous sequence (collect-views samples poses independently; "
+            "navbench render-sequence renders a walk), so the ATE says little")
+
+
 def check_map_covers(model, poses, what: str) -> None:
     """Every camera position of ``poses (N, 3)`` lies on the map's grid (else the map is of
     another place, or the sequence in another frame): one error naming ``what``."""
