@@ -212,7 +212,10 @@ def _summary(help_text: str | None, limit: int = 160) -> str:
         return ""
     if len(first) <= limit:
         return first
-    return first[:limit].rsplit(" ", 1)[0] + " …"
+    cut = first[:limit].rsplit(" ", 1)[0]
+    if cut.count("`") % 2:  # never end inside inline code
+        cut = cut[:cut.rindex("`")].rstrip()
+    return cut + " …"
 
 
 def render_cli(app=None) -> str:

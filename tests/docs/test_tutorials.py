@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import os
 import re
+import resource
 import subprocess
 import sys
 import time
@@ -116,14 +117,19 @@ def test_tutorial_runs_as_written(name, tmp_path):
     blocks = runnable_blocks((TUTORIALS / f"{name}.md").read_text(encoding="utf-8"))
     script = "set -euo pipefail\n" + "\n".join(blocks) + "\n"
     (tmp_path / ".tutorial.sh").write_text(script)
-    t0 = time.monotonic()
+    t0, cpu0 = time.monotonic(), _children_cpu()
     try:
         p = subprocess.run(["bash", str(tmp_path / ".tutorial.sh")], cwd=tmp_path, env=tutorial_env(),
                            capture_output=True, text=True, timeout=LIMIT_S, stdin=subprocess.DEVNULL)
     except subprocess.TimeoutExpired as e:
         pytest.fail(f"{name}: the runnable commands took more than {LIMIT_S} s\n{(e.stdout or '')[-3000:]}")
-    took = time.monotonic() - t0
+    took, cpu = time.monotonic() - t0, _children_cpu() - cpu0
     out = p.stdout + p.stderr
     assert p.returncode == 0, f"{name}: exit {p.returncode} after {took:.0f} s\n{out[-6000:]}"
     assert "Traceback" not in out, out[-6000:]
-    print(f"{name}: {took:.1f} s")
+    print(f"{name}: {took:.1f} s wall, {cpu:.1f} s CPU")  # for the record (pytest -s), never asserted
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
