@@ -377,6 +377,8 @@ def describe_check(check: Callable[[Any], None]) -> str:
                    r"a table per known estimator (\1)", m, flags=re.S)
         m = re.sub(r"^\?: unknown field; known: .*$", "only the fields listed below", m, flags=re.S)
         if scalar_name:
+            if m.startswith("expected a list of"):
+                continue
             m = re.sub(r"^each a safe", "a safe", m)
         if m not in texts:
             texts.append(m)
@@ -455,7 +457,7 @@ def profile_field_rows() -> list[tuple[str, str]]:
         place = place or "[navigation.options.<estimator>]"
         default = _default(f)
         option = OPTION_NAMES.get(f.name, "")
-        rows.append((f.name, f"| {_cell(_code(place))} | {_code(f.name)} | {_cell(_code(_toml(default)))} | "
+        rows.append((f.name, f"| {_cell(_code(place))}<br>({_code(f.name)}) | {_cell(_code(_toml(default)))} | "
                              f"{_cell(_code(option) if option else '')} | {_cell(describe_check(check))} | "
                              f"{_cell(comments.get(f.name, ''))} |"))
     return rows
@@ -474,8 +476,8 @@ def render_profile_fields() -> str:
            "Each row is one field of `navbench.pipeline.profiles.Profile`: where a profile file sets it, "
            "its default when the file leaves it out, the command-line option that overrides it, the check "
            "it must pass (in the words of the check's error message) and what it means.\n",
-           "| in the TOML file | field | default | CLI option | accepts | meaning |",
-           "|---|---|---|---|---|---|"]
+           "| in the TOML file (field) | default | CLI option | accepts | meaning |",
+           "|---|---|---|---|---|"]
     out += [row for _, row in profile_field_rows()]
     names = available_profiles()
     out += ["", "## The bundled profiles {#bundled}\n",
@@ -554,8 +556,9 @@ def missing_profile_entries(markdown: str) -> list[str]:
         rows = [r for r in sections.get(section, "").splitlines() if r.startswith("|")]
         return any(len(r.split("|")) > column + 1 and r.split("|")[column].strip().strip("`") == key for r in rows)
 
+    field_rows = [r for r in sections.get("fields", "").splitlines() if r.startswith("|")]
     for f in dc.fields(Profile):
-        if not has_row("fields", f.name, 2):
+        if not any(f"(`{f.name}`)" in r.split("|")[1] for r in field_rows if len(r.split("|")) > 2):
             missing.append(f"Profile.{f.name}")
     for f in dc.fields(FitConfig):
         if f.name not in ("steps", "seed") and not has_row("fit", f.name, 1):
