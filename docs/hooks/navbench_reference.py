@@ -1,7 +1,8 @@
 """MkDocs hook (``hooks:`` in mkdocs.yml): the generated reference pages, and docs/data/ as data.
 
 ``docs/data/`` (the measured data behind the results and the notebook) is copied into the site
-file by file: a Markdown file there is data, not a page (:func:`on_files`).
+file by file: a Markdown file there is data, not a page (:func:`on_files`). On the Python API
+page, the Sphinx roles of the docstrings (``:func:``) are dropped (:func:`on_page_content`).
 
 Two pages hold a marker comment that this hook replaces with text generated from navbench's own
 structures at build time, so they cannot go stale:
@@ -78,6 +79,19 @@ def on_page_markdown(markdown: str, page, config, files, **kwargs):
         raise ValueError(f"docs/{src} must hold the marker {marker} (the generated reference goes there)")
     rendered = render_cli() if marker == CLI_MARKER else render_profile_fields()
     return markdown.replace(marker, rendered)
+
+
+_RST_ROLE = re.compile(r":(?:py:)?(?:func|class|meth|mod|attr|data|exc|obj|const):(?=<code>)")
+
+
+def on_page_content(html: str, page, config, files, **kwargs):
+    """The Python API page: navbench's docstrings are written for Sphinx-style reading
+    (``:func:`x```, a paragraph ending in ``::`` before a literal block); mkdocstrings shows
+    them as Markdown, so the role prefixes and the doubled colon are dropped there."""
+    if page.file.src_uri != "reference/python-api.md":
+        return html
+    html = _RST_ROLE.sub("", html)
+    return re.sub(r"::(</p>)", r":\1", html)
 
 
 # ------------------------------------------------------------------------------ helpers

@@ -118,3 +118,12 @@ def test_describe_check_uses_the_checks_own_words(hook):
         "expected a string; one of ['paper', 'nrns', 'habitat']"
     # the profile's own name: one name (the check wraps it in a list), not a list of names
     assert hook.describe_check(FIELDS["name"][1]).startswith("a safe profile name (")
+
+
+def test_python_api_page_drops_sphinx_roles(hook):
+    html = "<p>Runs :func:<code>run_profile</code> and :class:<code>Progress</code>::</p><p>a: b</p>"
+    api = SimpleNamespace(file=SimpleNamespace(src_uri="reference/python-api.md"))
+    assert hook.on_page_content(html, api, None, None) == \
+        "<p>Runs <code>run_profile</code> and <code>Progress</code>:</p><p>a: b</p>"
+    other = SimpleNamespace(file=SimpleNamespace(src_uri="tutorials/gpu.md"))
+    assert hook.on_page_content(html, other, None, None) == html
