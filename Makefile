@@ -36,10 +36,10 @@ paper: setup
 # at http://127.0.0.1:8000. --strict: a broken link, a missing anchor or a page left out of the
 # navigation fails the build (tests/docs/test_docs_build.py runs the same build).
 docs: setup
-	$(BIN)/mkdocs build --strict --site-dir site
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 docs-serve: setup
-	$(BIN)/mkdocs serve
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve
 
 clean:
 	rm -rf results/cache results/report results/navbench.db .pytest_cache .numba_cache site
