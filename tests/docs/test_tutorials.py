@@ -23,11 +23,11 @@ scratch folder's ``results/navbench.db``, navbench's default) and the rest is in
 (``NUMBA_CACHE_DIR``, which ``make test`` sets). No command is rewritten or substituted: if a
 tutorial needs a file, a profile or a variable, it shows the command that makes it.
 
-Cost: the eight tutorials together take about 100 s of CPU time (measured 2026-11-26 on the
-2-core reference machine: 108 s of user + system time for all eight, 41 to 107 s wall each
-under a load of 13 to 18 from other work), so about a minute of wall time under ``make test``'s
-two workers on an idle machine. Each has a generous time limit (``LIMIT_S``) so that a loaded
-machine does not fail them; times are printed (``pytest -s``), never asserted.
+Cost: the eight tutorials together take about 95 s of CPU time, 8 to 15 s each (measured
+2026-11-27 on the 2-core reference machine, serially, under a load of 4 to 8 from other work:
+192 s wall for all eight), so about a minute of wall time under ``make test``'s two workers on
+an idle machine. Each has a generous time limit (``LIMIT_S``) so that a loaded machine does not
+fail them; times are printed (``pytest -s``), never asserted.
 """
 
 from __future__ import annotations
