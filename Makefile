@@ -7,7 +7,7 @@ PROFILE ?= quick
 # numba's compiled kernels are cached here, so only the first run pays for compilation
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 
-.PHONY: setup test all paper clean
+.PHONY: setup test all paper docs docs-serve clean
 
 setup: $(STAMP)
 
@@ -17,7 +17,7 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test,ray,postgres]"
+	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test,ray,postgres,docs,vizdoom]"
 	touch $(STAMP)
 
 test: setup
@@ -32,6 +32,15 @@ all: setup
 paper: setup
 	$(BIN)/navbench all --profile paper
 
+# The documentation site (MkDocs + Material, mkdocs.yml): built into site/, or served with live reload
+# at http://127.0.0.1:8000. --strict: a broken link, a missing anchor or a page left out of the
+# navigation fails the build (tests/docs/test_docs_build.py runs the same build).
+docs: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
+
+docs-serve: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve
+
 clean:
-	rm -rf results/cache results/report results/navbench.db .pytest_cache .numba_cache
+	rm -rf results/cache results/report results/navbench.db .pytest_cache .numba_cache site
 	find . -name __pycache__ -type d -prune -exec rm -rf {} +
