@@ -1,4 +1,4 @@
-"""Config hashing: the content hash of a frozen dataclass is its cache key.
+"""Config hashing (the content hash of a frozen dataclass is its cache key) and where the cache is.
 
 ``config_hash`` is sha256 over the sorted, compact JSON of a value made only of dataclasses,
 dicts, lists/tuples, str, int, float, bool and None. Floats are written with ``repr`` so that a
@@ -50,3 +50,17 @@ def read_json(path: str | Path, error: type[Exception], missing: str,
         return json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise error(f"{path}: {invalid} ({e})") from None
+
+
+#: The stage cache of a project: ``results/cache`` of the working directory...
+DEFAULT_CACHE = "results/cache"
+#: ... unless this environment variable names another folder (one cache shared by project
+#: folders; docs/reference/overrides.md says what is and is not shared).
+CACHE_ENV = "NAVBENCH_CACHE"
+
+
+def default_cache_root() -> Path:
+    """``$NAVBENCH_CACHE`` when set, else ``results/cache`` (of the working directory)."""
+    import os
+
+    return Path(os.environ.get(CACHE_ENV) or DEFAULT_CACHE).expanduser()

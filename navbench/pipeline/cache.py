@@ -49,7 +49,8 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from navbench import __version__
-from navbench.config import config_hash, read_json, to_jsonable
+# where the cache is by default (re-exported: the report, which must never write over it, reads it too)
+from navbench.config import CACHE_ENV, DEFAULT_CACHE, config_hash, default_cache_root, read_json, to_jsonable  # noqa: F401
 from navbench.errors import ArtifactError
 
 from navbench.pipeline.ownership import BAD_NAME, MANIFEST, REFS_DIR, TMP_NAME, ensure_root, hold
@@ -98,20 +99,6 @@ class ArtifactInfo:
     created: str
     inputs: dict[str, str]
     config: dict
-
-
-#: The stage cache of a project: ``results/cache`` of the working directory...
-DEFAULT_CACHE = "results/cache"
-#: ... unless this environment variable names another folder (one cache shared by project
-#: folders; docs/reference/overrides.md says what is and is not shared).
-CACHE_ENV = "NAVBENCH_CACHE"
-
-
-def default_cache_root() -> Path:
-    """``$NAVBENCH_CACHE`` when set, else ``results/cache`` (of the working directory)."""
-    import os
-
-    return Path(os.environ.get(CACHE_ENV) or DEFAULT_CACHE).expanduser()
 
 
 class ArtifactStore:

@@ -18,7 +18,7 @@ def protected_paths(db_url: str | None = None, cache_root: str | Path | None = N
     database file, the level and task folders."""
     from navbench.results.db import resolve_db_url
 
-    from navbench.pipeline.cache import default_cache_root
+    from navbench.config import default_cache_root
 
     paths = [Path(cache_root) if cache_root is not None else default_cache_root(), Path(levels_dir), Path(tasks_dir)]
     url = resolve_db_url(db_url)

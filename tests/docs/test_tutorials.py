@@ -48,7 +48,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TUTORIALS = ROOT / "docs" / "tutorials"
 #: The tutorials of the documentation (HELPERS.md, mkdocs.yml's navigation).
 NAMES = ("reproduce-the-paper", "own-estimator", "own-map", "own-rgbd-data", "image-goals",
-         "localisation", "ray-cluster", "gpu")
+         "localisation", "ray-cluster", "gpu", "compare", "render-sequence")
 MARKER = "<!-- runnable -->"
 LIMIT_S = 600   # per tutorial, a loaded machine included
 
