@@ -16,6 +16,11 @@ from navbench.levelgen.validate import _distance_to_convex, validate_level
 
 # ----------------------------------------------------------------------------------- HouseExpo
 
+#: Most outline points of a HouseExpo document (one wall per edge; HouseExpo's own have < 100).
+#: Checked first: the self-crossing check is quadratic in pure Python (20 000 points: minutes).
+MAX_HOUSEEXPO_VERTICES = 1000
+
+
 def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Validate a HouseExpo document; returns ``verts (N, 2)``, ``bbox_min (2,)``, ``bbox_max (2,)``."""
     def bad(field: str, msg: str):
@@ -36,6 +41,9 @@ def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     verts = doc["verts"]
     if not isinstance(verts, list) or len(verts) < 3:
         bad("verts", "expected a list of at least 3 [x, y] points")
+    if len(verts) > MAX_HOUSEEXPO_VERTICES:  # before the self-crossing check, which is quadratic
+        bad("verts", f"{len(verts)} points; an outline may have at most {MAX_HOUSEEXPO_VERTICES} "
+            "(one wall per edge)")
     pts = np.array([vec2(p, f"verts[{k}]") for k, p in enumerate(verts)])
     if len(pts) > 3 and np.allclose(pts[0], pts[-1]):
         pts = pts[:-1]  # closed ring

@@ -268,21 +268,17 @@ def load_profile(name_or_path: str | None = None) -> Profile:
     """Load a bundled profile by name, or a TOML file by path (default: ``quick``)."""
     name_or_path = name_or_path or DEFAULT_PROFILE
     p = Path(name_or_path)
-    if p.suffix == ".toml" and p.is_file():
-        path = p
+    if p.suffix == ".toml" and (p.exists() or p.is_symlink()):
+        path = p  # a directory, FIFO or device named *.toml is refused by load_toml
     else:
         path = PROFILES_DIR / f"{name_or_path}.toml"
         if not is_safe_name(name_or_path) or not path.is_file():
             raise ConfigError(f"--profile: unknown profile {name_or_path!r}; choose one of "
                               f"{available_profiles()} or give the path of a .toml file")
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML ({e})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not valid TOML (not UTF-8 text)") from None
-    except OSError as e:
-        raise ConfigError(f"{path}: cannot read the profile ({e.strerror or e})") from None
+    from navbench.safeio import load_toml
+
+    # safeio: a regular file of bounded size, bounded nesting, finite numbers (issue 34)
+    doc = load_toml(path, ConfigError, "profile")
     return profile_from_dict(doc, str(path))
 
 

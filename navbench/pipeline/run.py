@@ -259,6 +259,9 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     protected = protected_paths(db if db is None or isinstance(db, str) else db.url, cache_root)
     if report_dir is not None:
         check_report_dir(report_dir, "--report", protected)  # before hours of work, not after
+    from navbench.pipeline.executor import check_executor
+
+    check_executor(executor, prof.workers, address)  # before the run row (no failed run to resume)
     progress = progress or SilentProgress()
     with open_db(db) as rdb:
         ctx = stage_context(progress, rdb, cache_root=cache_root)

@@ -28,6 +28,7 @@ from navbench.worldmodel.views import (
     _intrinsics_from,
     check_intrinsics,
     check_views_memory,
+    json_number,
 )
 
 # ------------------------------------------------------------------------------ TUM RGB-D
@@ -149,13 +150,12 @@ def _read_list(path: Path, n_fields: int, layout: str) -> list[tuple[float, list
     exactly ``n_fields`` more whitespace-separated fields (``layout`` names them in the error),
     and a finite timestamp. Errors name ``path:line``.
     """
-    if not path.is_file():
+    if not path.exists():
         raise ArtifactError(f"{path.parent}: missing {path.name} (TUM RGB-D layout: rgb.txt, "
                             f"depth.txt, groundtruth.txt, rgb/, depth/)")
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ArtifactError(f"{path}: unreadable ({type(e).__name__}: {e})") from None
+    from navbench.safeio import read_text
+
+    text = read_text(path, ArtifactError, "TUM list file")
     out = []
     for k, line in enumerate(text.splitlines(), 1):
         line = line.strip()
@@ -229,8 +229,11 @@ def _open_listed(d: Path, row: tuple, list_path: Path):
     name, k = row[1][0], row[2]
     path = d / name
     where = f"{list_path}:{k}"
-    if not path.is_file():
+    if not path.exists():
         raise ArtifactError(f"{where}: {name}: no such file")
+    from navbench.safeio import check_regular_file
+
+    check_regular_file(path, ArtifactError, "image file")  # a FIFO would block PIL for ever
     try:
         return Image.open(path), path, where
     except Exception as e:  # PIL raises OSError, SyntaxError, ValueError, DecompressionBombError
@@ -279,7 +282,11 @@ def first_rgb_size(directory) -> tuple[int, int]:
         return im.size
 
 
-def _positive_number(value, where: str) -> float:
+def _positive_number(value, where: str, json_only: bool = False) -> float:
+    """``value`` as a positive finite float; ``json_only`` (a value read from a JSON file): a
+    number there, not a boolean or a numeric string."""
+    if json_only and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        raise ArtifactError(f"{where}: {value!r} is not a number")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -350,13 +357,10 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
         raise ConfigError(f"max_dt must be a finite number of seconds >= 0, got {max_dt!r}")
     info_path = d / "intrinsics.json"
     info = {}
-    if info_path.is_file():
-        try:
-            info = json.loads(info_path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as e:
-            raise ArtifactError(f"{info_path}: not valid JSON ({e})") from None
-        except OSError as e:
-            raise ArtifactError(f"{info_path}: unreadable ({e.strerror or e})") from None
+    if info_path.exists():  # a directory or FIFO of that name is refused by load_json
+        from navbench.safeio import load_json
+
+        info = load_json(info_path, ArtifactError, "intrinsics file")
         if not isinstance(info, dict):
             raise ArtifactError(f"{info_path}: expected a JSON object, got {type(info).__name__}")
     if intrinsics is None:
@@ -369,15 +373,17 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
     if depth_scale is not None:
         scale = _positive_number(depth_scale, "depth_scale")
     else:
-        scale = _positive_number(info.get("depth_scale", TUM_DEPTH_SCALE), f"{info_path}: depth_scale")
+        scale = _positive_number(info.get("depth_scale", TUM_DEPTH_SCALE), f"{info_path}: depth_scale",
+                                 json_only=True)
     if camera_height is not None:
         camera_height = _positive_number(camera_height, "camera_height")
     elif info.get("camera_height") is not None:
-        camera_height = _positive_number(info["camera_height"], f"{info_path}: camera_height")
+        camera_height = _positive_number(info["camera_height"], f"{info_path}: camera_height",
+                                         json_only=True)
     box = None
     if info.get("box"):
         try:
-            box = tuple(tuple(float(c) for c in corner) for corner in info["box"])
+            box = tuple(tuple(json_number(c) for c in corner) for corner in info["box"])
             lo, hi = np.asarray(box[0]), np.asarray(box[1])
             ok = len(box) == 2 and lo.shape == hi.shape == (3,) and np.all(np.isfinite(lo + hi))
         except (TypeError, ValueError, IndexError):

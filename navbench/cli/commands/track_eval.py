@@ -15,9 +15,8 @@ def _parse_options(items: list[str]) -> dict[str, dict]:
 
     Values are read as JSON when possible (numbers, lists, true/false), else kept as strings.
     """
-    import json
-
     from navbench.errors import ConfigError
+    from navbench.safeio import parse_option_value
 
     out: dict[str, dict] = {}
     for item in items:
@@ -25,10 +24,7 @@ def _parse_options(items: list[str]) -> dict[str, dict]:
         name, dot, opt = key.partition(".")
         if not sep or not dot or not name or not opt:
             raise ConfigError(f"--option expects ESTIMATOR.KEY=VALUE, got {item!r}")
-        try:
-            val = json.loads(value)
-        except json.JSONDecodeError:
-            val = value
+        val = parse_option_value(value, f"--option {item.partition('=')[0]}")
         out.setdefault(name.strip(), {})[opt.strip()] = val
     return out
 

@@ -99,17 +99,13 @@ def _check_out(out: Path, directory: Path, odometry: str) -> None:
 
 def _parse_options(items: list[str]) -> dict:
     """``["optimizer=adam", "gn_pixels=2000"]`` -> a dict; values read as JSON when possible."""
-    import json
-
     from navbench.errors import ConfigError
+    from navbench.safeio import parse_option_value
 
     out = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"--option expects KEY=VALUE, got {item!r}")
-        try:
-            out[key.strip()] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key.strip()] = value
+        out[key.strip()] = parse_option_value(value, f"--option {key.strip()}")
     return out
