@@ -174,9 +174,10 @@ def _chain(e: BaseException):
 
 
 def _interrupted(e: BaseException) -> bool:
-    """Whether ``e`` is, or was caused by, Ctrl-C: a KeyboardInterrupt raised inside a numba or
-    torch kernel comes back as ``SystemError(... returned a result with an exception set)``."""
-    return any(isinstance(x, KeyboardInterrupt) for x in _chain(e))
+    """Whether ``e`` is, or was caused by, Ctrl-C (:func:`navbench.errors.caused_by_interrupt`)."""
+    from navbench.errors import caused_by_interrupt
+
+    return caused_by_interrupt(e)
 
 
 def _env_oserror(e: BaseException) -> OSError | None:
@@ -297,7 +298,12 @@ def main(argv: list[str] | None = None) -> None:
             _fail(f"{where}: {ose.strerror or os.strerror(ose.errno)} (nothing was stored for the "
                   "step that failed; free space or fix the folder's permissions and rerun)")
         raise
-    # with standalone_mode=False, click returns typer.Exit(n)'s code (and 1 after Ctrl-C)
+    # with standalone_mode=False, click returns typer.Exit(n)'s code; typer >= 0.29 turns a
+    # KeyboardInterrupt into Exit(130) and returns 130 without a word (commands that report
+    # Ctrl-C themselves exit through SystemExit and do not come back here)
+    if rv == 130:
+        typer.secho("interrupted", err=True, fg=typer.colors.YELLOW)
+        sys.exit(130)
     if isinstance(rv, int) and rv:
         sys.exit(rv)
 

@@ -168,9 +168,13 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
     def compute(d: Path) -> None:
         from navbench.worldmodel.fitviews import fit_views
 
+        from navbench.interrupts import checked, deferred
+
         update = ctx.progress(f"fit {name}", fit_cfg.steps)
-        vmap, metrics = fit_views(views, fit_cfg, heldout, cfg.heldout_every,
-                                  load_level_ref(level) if level is not None else None, update)
+        with deferred():  # Ctrl-C at the next progress call, never inside torch (an abort)
+            vmap, metrics = fit_views(views, fit_cfg, heldout, cfg.heldout_every,
+                                      load_level_ref(level) if level is not None else None,
+                                      checked(update))
         metrics.setdefault("fit_seconds", metrics.get("fit_time_s"))
         metrics.update(views_key=views_key, heldout_key=heldout_key)
         vmap.save(d / MAP_FILE)

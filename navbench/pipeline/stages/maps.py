@@ -52,12 +52,14 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
 
     def compute(d: Path) -> None:
         from navbench.worldmodel.fit import evaluate_map, fit_map
+        from navbench.interrupts import checked, deferred
         from navbench.worldmodel.grid import check_fitted_finite
         from navbench.worldmodel.views import load_views
 
         train = load_views(views.path)
         update = ctx.progress(f"fit {level.name}", fit_cfg.steps)
-        vmap, metrics = fit_map(train, fit_cfg, progress=update)
+        with deferred():  # Ctrl-C at the next progress call, never inside torch (an abort)
+            vmap, metrics = fit_map(train, fit_cfg, progress=checked(update))
         del train
         check_fitted_finite(vmap, metrics, fit_cfg)  # a diverged fit is never cached
         held = load_views(eval_views.path)
