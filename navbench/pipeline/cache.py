@@ -46,6 +46,7 @@ from typing import Any, Callable, Iterable
 from navbench import __version__
 from navbench.config import config_hash, read_json, to_jsonable
 from navbench.errors import ArtifactError
+from navbench.safeio import load_json
 
 MANIFEST = "manifest.json"
 REFS_DIR = "refs"
@@ -122,6 +123,8 @@ class ArtifactStore:
         if not isinstance(files, dict):
             raise ArtifactError(f"{mf}: manifest has no file list")
         for rel, meta in files.items():
+            if not isinstance(meta, dict):  # a damaged manifest: one line, not an AttributeError
+                raise ArtifactError(f"{mf}: malformed entry for file {rel!r}")
             p = d / rel
             if not p.is_file():
                 raise ArtifactError(f"{d}: file {rel} is missing")
@@ -253,8 +256,8 @@ class ArtifactStore:
         if d.is_dir():
             for p in sorted(d.glob("*.json")):
                 try:
-                    out[p.stem] = [tuple(x) for x in json.loads(p.read_text())["artifacts"]]
-                except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+                    out[p.stem] = [tuple(x) for x in load_json(p, ArtifactError)["artifacts"]]
+                except (ArtifactError, KeyError, TypeError, ValueError):  # safeio: deep, FIFO
                     continue
         return out
 
@@ -276,11 +279,11 @@ class ArtifactStore:
             if stage is not None and a.stage != stage:
                 continue
             try:
-                man = json.loads((a.path / MANIFEST).read_text())
+                man = load_json(a.path / MANIFEST, ArtifactError)  # safeio: deep, FIFO, huge
                 size = sum(int(m["size"]) for m in man["files"].values())
                 out.append(ArtifactInfo(a.stage, a.key, a.path, size, man.get("created", ""),
                                         dict(man.get("inputs", {})), dict(man.get("config", {}))))
-            except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError):
+            except (OSError, ArtifactError, KeyError, TypeError, ValueError, AttributeError):
                 out.append(ArtifactInfo(a.stage, a.key, a.path, 0, "", {}, {}))
         out.sort(key=lambda i: (i.created, i.stage, i.key))
         return out

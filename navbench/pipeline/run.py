@@ -104,11 +104,15 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     """Record a run around the block; yields its run id.
 
     The run row starts as ``running``; it ends ``done`` when the block returns, ``interrupted``
-    on Ctrl-C (``KeyboardInterrupt``) and ``failed`` on any other exception, which propagate.
+    on Ctrl-C (``KeyboardInterrupt``) and ``failed`` on any other exception, which propagate;
+    a :class:`~navbench.errors.NavbenchError` (bad input) before the run stored any row deletes
+    the run instead (:meth:`ResultsDB.discard_unused_run`), so no later run resumes it.
     With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
     cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
     """
     from navbench.config import config_hash, to_jsonable
+
+    from navbench.errors import NavbenchError
 
     cfg = to_jsonable(config)
     run_id = db.start_run(profile, command, cfg, config_hash(cfg))
@@ -119,8 +123,13 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     except KeyboardInterrupt:
         status = "interrupted"
         raise
+    except NavbenchError:  # bad input refused before anything was stored: no run to resume
+        if db.discard_unused_run(run_id):
+            status = None
+        raise
     finally:
-        db.finish_run(run_id, status)
+        if status is not None:
+            db.finish_run(run_id, status)
         if ctx is not None and ref_name and ctx.used:
             ctx.store.set_ref(ref_name, ctx.used)
 

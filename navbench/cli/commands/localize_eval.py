@@ -57,6 +57,9 @@ def register(app: typer.Typer) -> None:
             raise ConfigError(f"--changes: expected one of {', '.join(OC_NAMES)}, got {changes!r}")
         changes = changes.upper() if changes else None
         camera_by_name(camera)
+        from navbench.pipeline.stages.track_eval import check_map_spec
+
+        check_map_spec(map_)  # before the database is opened (no level row, no run row)
         prof = load_profile(profile) if map_ == "fit" else None
         cfg = LocalizeEvalConfig(queries=queries, seed=seed, camera=camera, changes=changes,
                                  localizer=_localizer_config(option), sampling=sampling).resolved()

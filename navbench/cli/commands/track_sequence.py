@@ -55,6 +55,11 @@ def register(app: typer.Typer) -> None:
 
         if out is not None:  # checked before the sequence is read and tracked
             _check_out(out, directory, odometry)
+        if not odometry.startswith("gt+"):  # an odometry file: regular, before the database opens
+            from navbench.errors import ConfigError
+            from navbench.safeio import check_regular_file
+
+            check_regular_file(odometry, ConfigError, "odometry file")
         reading = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                       max_height_dev)
         cfg = TrackSequenceConfig(estimator=estimator, odometry=odometry, seed=seed,

@@ -275,6 +275,17 @@ class ResultsDB:
         if n == 0:
             raise DatabaseError(f"no run with id {run_id} in {self.display_url}")
 
+    def discard_unused_run(self, run_id: int) -> bool:
+        """Delete run ``run_id`` when no row of any table refers to it (a run that refused its
+        input before it stored anything: no ``failed`` run is left for a later one to
+        "resume", issue 34); returns whether it was deleted."""
+        with self._begin() as conn:
+            for table in Run.metadata.sorted_tables:
+                if "run_id" in table.c and conn.execute(
+                        select(table.c.run_id).where(table.c.run_id == run_id).limit(1)).first():
+                    return False
+            return conn.execute(Run.__table__.delete().where(Run.id == run_id)).rowcount > 0
+
     def mark_dead_runs(self) -> list[int]:
         """Mark ``interrupted`` the runs still ``running`` on this host whose process is gone
         (or whose pid now belongs to a later process); returns their ids.

@@ -76,6 +76,23 @@ def is_tum_dir(path: Path) -> bool:
     return path.is_dir() and not (path / "views.json").is_file()
 
 
+def check_views_spec(spec: str, what: str = "--views") -> None:
+    """Refuse at once (before the results database is opened) a views ``spec`` that can be
+    neither a views file or directory nor a cache key: a FIFO, a device, a missing path that
+    is no hex key (issue 34)."""
+    from navbench.safeio import check_regular_file
+
+    p = Path(spec)
+    if p.exists() or p.is_symlink():
+        if not p.is_dir():
+            check_regular_file(p, ConfigError, "views file")
+        return
+    if spec != "auto" and not _HEX.fullmatch(spec):
+        raise ConfigError(f"{what} {spec}: no such file or directory, and not a views key (>= 6 "
+                          f"hex digits of an import-views or collect-views artifact, see "
+                          f"`navbench cache ls`)")
+
+
 def resolve_views(spec: str, ctx: StageContext | None = None, options: ImportOptions = ImportOptions(),
                   what: str = "--views"):
     """The views ``spec`` names and their content key: ``(Views, key)``.

@@ -65,11 +65,27 @@ def study_level(ctx: StageContext, level: str, profile: Any = None) -> Ref:
                             else LevelConfig(level))
 
 
+def check_map_spec(spec: str, choices: tuple[str, ...] = MAP_CHOICES) -> None:
+    """Refuse a ``--map`` that is neither one of ``choices`` nor a readable map file (its
+    header: a navbench ``.npz``), in one line and before anything is built or recorded: a
+    command checks it before it opens the results database (issue 34)."""
+    if spec in choices:
+        return
+    from navbench.safeio import check_regular_file
+    from navbench.worldmodel.base import read_kind
+
+    if not (Path(spec).exists() or Path(spec).is_symlink()):
+        raise ConfigError(f"--map: no such map file {spec!r} (or use {' or '.join(choices)})")
+    check_regular_file(spec, ConfigError, "map file")
+    read_kind(spec)
+
+
 def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
               needed: bool = True) -> StudyMap:
     """Resolve ``--map`` (:data:`MAP_CHOICES` or a map file path) for ``level``. ``fit`` builds
     (or fetches) ``profile``'s fitted map; nothing is built when ``needed`` is false."""
     if not needed:
+        check_map_spec(spec)  # a map file nobody uses is still checked: never ignored
         return StudyMap(spec, "none")
     if spec == "true":
         def load_true():
