@@ -175,6 +175,13 @@ def _read_list(path: Path, n_fields: int, layout: str) -> list[tuple[float, list
     return out
 
 
+#: Farthest camera position (m) an imported sequence may have (a building, not a planet).
+MAX_POSITION_M = 1e4
+#: Largest camera height (m) and depth scale (PNG units per metre) read.
+MAX_CAMERA_HEIGHT_M = 100.0
+MAX_DEPTH_SCALE = 1e9
+
+
 def _read_groundtruth(path: Path) -> list[tuple[float, np.ndarray, int]]:
     """``groundtruth.txt`` as ``(timestamp, T_wc 4x4, line number)``; every pose must be seven
     finite numbers with a unit quaternion (within :data:`QUAT_NORM_TOL`, then normalised)."""
@@ -188,6 +195,9 @@ def _read_groundtruth(path: Path) -> list[tuple[float, np.ndarray, int]]:
                 raise ArtifactError(f"{path}:{k}: pose value {_short(v)} is not a number") from None
         if not all(math.isfinite(v) for v in p):
             raise ArtifactError(f"{path}:{k}: pose has NaN or infinite values")
+        if max(abs(v) for v in p[:3]) > MAX_POSITION_M:  # finite but absurd (issue 34)
+            raise ArtifactError(f"{path}:{k}: camera position {' '.join(vals[:3])} is more than "
+                                f"{MAX_POSITION_M:g} m from the origin")
         qn = math.sqrt(sum(v * v for v in p[3:]))
         if not abs(qn - 1.0) <= QUAT_NORM_TOL:
             raise ArtifactError(f"{path}:{k}: quaternion qx qy qz qw = {' '.join(vals[3:])} has "
@@ -282,7 +292,8 @@ def first_rgb_size(directory) -> tuple[int, int]:
         return im.size
 
 
-def _positive_number(value, where: str, json_only: bool = False) -> float:
+def _positive_number(value, where: str, json_only: bool = False, hi: float = math.inf,
+                     lo: float = 1e-3) -> float:
     """``value`` as a positive finite float; ``json_only`` (a value read from a JSON file): a
     number there, not a boolean or a numeric string."""
     if json_only and (isinstance(value, bool) or not isinstance(value, (int, float))):
@@ -293,6 +304,8 @@ def _positive_number(value, where: str, json_only: bool = False) -> float:
         raise ArtifactError(f"{where}: {value!r} is not a number") from None
     if isinstance(value, bool) or not (math.isfinite(v) and v > 0):
         raise ArtifactError(f"{where}: must be a positive finite number, got {value!r}")
+    if not lo <= v <= hi:  # finite but absurd (issue 34): 1e-320 m, 1e308 units per metre
+        raise ArtifactError(f"{where}: must be in [{lo:g}, {hi:g}], got {value!r}")
     return v
 
 
@@ -371,15 +384,15 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
     else:
         check_intrinsics(intrinsics, f"intrinsics ({intrinsics_source})")
     if depth_scale is not None:
-        scale = _positive_number(depth_scale, "depth_scale")
+        scale = _positive_number(depth_scale, "depth_scale", hi=MAX_DEPTH_SCALE)
     else:
         scale = _positive_number(info.get("depth_scale", TUM_DEPTH_SCALE), f"{info_path}: depth_scale",
-                                 json_only=True)
+                                 json_only=True, hi=MAX_DEPTH_SCALE)
     if camera_height is not None:
-        camera_height = _positive_number(camera_height, "camera_height")
+        camera_height = _positive_number(camera_height, "camera_height", hi=MAX_CAMERA_HEIGHT_M)
     elif info.get("camera_height") is not None:
         camera_height = _positive_number(info["camera_height"], f"{info_path}: camera_height",
-                                         json_only=True)
+                                         json_only=True, hi=MAX_CAMERA_HEIGHT_M)
     box = None
     if info.get("box"):
         try:

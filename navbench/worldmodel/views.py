@@ -130,6 +130,11 @@ def validate_views(v: Views, where: str, check_values: bool = True) -> None:
                                     f"where valid")
 
 
+#: Largest image side (px) and focal length (px) of a camera read from a file or option.
+MAX_IMAGE_SIDE = 65_536
+MAX_FOCAL_PX = 1e7
+
+
 def check_intrinsics(intr: Intrinsics, where: str) -> Intrinsics:
     """Raise :class:`ArtifactError` (naming ``where``) unless ``intr`` is a usable camera.
 
@@ -138,10 +143,14 @@ def check_intrinsics(intr: Intrinsics, where: str) -> Intrinsics:
     """
     if not (intr.width >= 1 and intr.height >= 1):
         raise ArtifactError(f"{where}: width and height must be >= 1, got {intr.width}x{intr.height}")
+    if intr.width > MAX_IMAGE_SIDE or intr.height > MAX_IMAGE_SIDE:  # finite but absurd (issue 34)
+        raise ArtifactError(f"{where}: width and height must be at most {MAX_IMAGE_SIDE} px, got "
+                            f"{intr.width}x{intr.height}")
     for name in ("fx", "fy"):
         v = getattr(intr, name)
-        if not (math.isfinite(v) and v > 0):
-            raise ArtifactError(f"{where}: {name} must be a positive finite focal length (px), got {v!r}")
+        if not (math.isfinite(v) and 0 < v <= MAX_FOCAL_PX):
+            raise ArtifactError(f"{where}: {name} must be a positive finite focal length (px) of at "
+                                f"most {MAX_FOCAL_PX:g}, got {v!r}")
     for name, size in (("cx", intr.width), ("cy", intr.height)):
         v = getattr(intr, name)
         if not (math.isfinite(v) and 0 <= v <= size):

@@ -131,8 +131,8 @@ def mutate_json(doc: Any, rng: random.Random, kind: str) -> tuple[bytes, bool]:
             b = text.encode()
             i = rng.randrange(len(b))
             return b[:i] + b"\xff\xfe\xc3" + b[i:], False
-        i = rng.randrange(len(text))
-        return (text[:i] + rng.choice(["}", "]", ",", ":", "\"", "{{", "\\u12"]) + text[i:]).encode(), False
+        i = rng.randrange(len(text))  # inside a string value the text stays valid JSON
+        return (text[:i] + rng.choice(["}", "]", ",", ":", "\"", "{{", "\\u12"]) + text[i:]).encode(), True
     if kind == "deep":
         return _dumps(_set(doc, path, _PLACE), _deep_text(rng)).encode(), False
     if kind == "nonfinite":
@@ -315,7 +315,7 @@ def gen_intrinsics(rng, ctx, kind):
 
 def _tum_list_damage(rng, path: Path, kind: str) -> bool:
     lines = path.read_text().splitlines()
-    k = rng.randrange(1, len(lines))
+    k = rng.choice([i for i, ln in enumerate(lines) if ln.strip() and not ln.startswith("#")])
     parts = lines[k].split()
     if kind == "nonregular":
         make_nonregular(path, rng)
@@ -329,7 +329,8 @@ def _tum_list_damage(rng, path: Path, kind: str) -> bool:
         return False
     if kind in ("nonfinite", "wrongtype", "deep"):
         i = rng.randrange(len(parts)) if path.name == "groundtruth.txt" else 0
-        parts[i] = (rng.choice(["nan", "inf", "-inf", "1e400", "1e308", "-1e308"]) if kind == "nonfinite" else
+        parts[i] = (rng.choice(["nan", "inf", "-inf", "1e400"] + (["1e308", "-1e308"] if i else []))
+                    if kind == "nonfinite" else
                     rng.choice(["true", "abc", "[1]", "{}", "None", "0x1p3"]) if kind == "wrongtype" else
                     "[" * 5000)
         lines[k] = " ".join(parts)
@@ -392,9 +393,12 @@ def _npz_damage(path: Path, rng, kind: str, header_key: str = "header") -> bool:
         return False
     if kind == "malformed" and rng.random() < 0.6:
         b = path.read_bytes()
-        write_damaged(path, b[: rng.randrange(len(b))] if rng.random() < 0.5 else
-                      b[:100] + bytes(rng.randrange(256) for _ in range(200)) + b[300:])
-        return False
+        if rng.random() < 0.5:
+            write_damaged(path, b[: rng.randrange(len(b))])
+            return False
+        # bytes overwritten in the middle: may land in array data, which stays readable
+        write_damaged(path, b[:100] + bytes(rng.randrange(256) for _ in range(200)) + b[300:])
+        return True
     if kind == "wrongtype" and rng.random() < 0.5:
         k = rng.choice([k for k in arrays if k != header_key])
         arrays[k] = rng.choice([np.zeros((2, 2), np.int8), np.array(["a", "b"]), np.zeros(0),

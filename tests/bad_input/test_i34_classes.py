@@ -452,3 +452,18 @@ def test_invariant_holds_for_the_class_tests(project):
         assert res.code == 2 and "Traceback" not in res.output
     assert tree_snapshot(project.parent) == snap
     assert db_row_counts(project) == rows and set(before) <= set(snap)
+
+
+def test_read_only_results_folder_is_one_line(project, monkeypatch):
+    """A read-only ``results/`` (simulated: the tests run as root, whom permissions do not stop)."""
+    real = Path.mkdir
+
+    def readonly(self, *a, **kw):
+        if "results" in self.parts:
+            raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(self))
+        return real(self, *a, **kw)
+
+    monkeypatch.setattr(Path, "mkdir", readonly)
+    res = nb("fit-map", "tiny", "--profile", "tiny.toml")
+    assert_clean_error(res, "results", "Read-only file system")
+    assert res.code == 2
