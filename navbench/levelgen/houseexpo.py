@@ -19,6 +19,8 @@ from navbench.levelgen.validate import _distance_to_convex, validate_level
 #: Most outline points of a HouseExpo document (one wall per edge; HouseExpo's own have < 100).
 #: Checked first: the self-crossing check is quadratic in pure Python (20 000 points: minutes).
 MAX_HOUSEEXPO_VERTICES = 1000
+#: Largest coordinate magnitude (m) in a HouseExpo document (a house, not a continent).
+MAX_HOUSEEXPO_COORD = 1e5
 
 
 def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -32,8 +34,9 @@ def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     def vec2(x, field):
         if (not isinstance(x, list) or len(x) != 2
                 or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
-                       for c in x)):
-            bad(field, f"expected [x, y] with finite numbers, got {x!r}")
+                       or abs(c) > MAX_HOUSEEXPO_COORD for c in x)):
+            bad(field, f"expected [x, y] with finite numbers of magnitude at most "
+                f"{MAX_HOUSEEXPO_COORD:g}, got {x!r}")
         return np.array([float(x[0]), float(x[1])])
 
     if "verts" not in doc:
@@ -176,6 +179,9 @@ def level_from_houseexpo(doc: Any, name: str, seed: int, size: float = DEFAULT_S
     P = [(_q((x - bmin[0]) * scale + m), _q((y - bmin[1]) * scale + m)) for x, y in pts]
     # drop vertices made duplicate by rounding
     P = [p for k, p in enumerate(P) if p != P[k - 1]]
+    if len(P) < 3 or abs(_poly_area(np.asarray(P, float))) <= 1e-9:  # e.g. one vertex at 1e300
+        raise LevelError("HouseExpo document: verts: the outline collapses to a line or a point "
+                         "once scaled to the level size (coordinates of absurd magnitude?)")
     poly = np.asarray(_ccw_tuple(P), float)
     width = _q((bmax[0] - bmin[0]) * scale + 2 * m)
     depth = _q((bmax[1] - bmin[1]) * scale + 2 * m)

@@ -542,6 +542,11 @@ OPTION_TABLE: dict[str, tuple[list[str], dict[str, Any]]] = {
                                                    "--camera": "choice"}),
     "bench": (["bench", "--quick"], {"--seed": "seed", "--repeats": ("int", 1), "--workers": ("int", 0)}),
     "db runs": (["db", "runs"], {"--last": ("int", 1)}),
+    "all": (["all", "--profile", "tiny.toml"], {"--workers": ("int", 0), "--executor": "choice",
+                                                 "--address": "address", "--condition": "condition",
+                                                 "--profile": "path"}),
+    "export-views": (["export-views", "v.npz", "newexport"], {"VIEWS": "path"}),
+    "level-difficulty": (["level-difficulty", "tiny"], {"--count": ("int", 1), "LEVELS": "path"}),
 }
 
 
@@ -577,11 +582,12 @@ def gen_option(command: str, option: str):
         else:
             raise ValueError(kind)
         if option.isupper():  # a positional argument: replace it
-            i = {"LEVEL": 1, "DIRECTORY": 1, "NAME": 1}[option]
+            i = {"LEVEL": 1, "DIRECTORY": 1, "NAME": 1, "VIEWS": 1, "LEVELS": 1}[option]
             argv[i] = value
         else:
             argv += [option, value]
-        outs = tuple(a for a in ("newtasks/", "new.npz", "newreport/", "newtraj/", "new.png", "tasks/")
+        outs = tuple(a for a in ("newtasks/", "new.npz", "newreport/", "newtraj/", "new.png", "tasks/",
+                                 "newexport/")
                      if a.rstrip("/") in argv or a == "tasks/")
         return Case(f"option/{command} {option}={value[:24]!r}", argv=argv, names=names,
                     may_pass=False, outputs=outs)

@@ -134,6 +134,19 @@ def test_huge_houseexpo_outline_is_refused_before_the_quadratic_check(project, t
     assert not Path("levels/big.json").exists()
 
 
+@pytest.mark.parametrize("far", [1e300, 1e-300])
+def test_absurd_houseexpo_coordinates_are_one_line(project, tmp_path, far):
+    """One vertex at 1e300 m (the rest collapse to a point once scaled: an IndexError)."""
+    doc = tmp_path / "house.json"
+    verts = [[0, 0], [6, 0], [6, 4], [far, far], [0, 6]]
+    doc.write_text(json.dumps({"verts": verts, "bbox": {"min": [0, 0], "max": [max(6, far), max(6, far)]}}))
+    res = nb("make-level", "far", "--seed", "0", "--from-houseexpo", str(doc))
+    if far < 1:  # a tiny coordinate is a valid house
+        assert res.code == 0, res.output
+    else:
+        assert_clean_error(res, str(doc), "verts")
+
+
 def test_huge_text_file_is_refused_by_size_first(project):
     from navbench.errors import LevelError
     from navbench.levelio import MAX_LEVEL_BYTES, load_level
