@@ -40,16 +40,18 @@ def config_hash(obj: Any) -> str:
 
 
 def read_json(path: str | Path, error: type[Exception], missing: str,
-              invalid: str = "not valid JSON") -> Any:
+              invalid: str = "not valid JSON", finite: bool = False) -> Any:
     """The JSON document in ``path``; raises ``error(missing)`` when there is no such file and
-    ``error("<path>: <invalid> (<reason>)")`` when it is not readable JSON."""
+    a one-line ``error("<path>: ...")`` when it is not a regular file or not readable JSON
+    (:func:`navbench.safeio.load_json`: bounded size and nesting; ``finite``: NaN and
+    infinities refused). ``invalid`` is kept for callers' compatibility."""
+    from navbench.safeio import check_regular_file, load_json
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise error(missing)
-    try:
-        return json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise error(f"{path}: {invalid} ({e})") from None
+    check_regular_file(path, error, "JSON file")  # a directory, FIFO or device: one line
+    return load_json(path, error, "JSON file", finite=finite)
 
 
 #: The stage cache of a project: ``results/cache`` of the working directory...

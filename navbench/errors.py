@@ -41,3 +41,16 @@ class DatabaseError(NavbenchError):
 class PluginError(ConfigError):
     """A plugin (an entry point of another distribution) is broken: it fails to import, clashes
     with a built-in or another plugin, or does not declare what navbench needs."""
+
+
+def caused_by_interrupt(e: BaseException) -> bool:
+    """Whether ``e`` is, or was raised from or while handling, a ``KeyboardInterrupt``: Ctrl-C
+    that arrives inside a numba or torch kernel comes back as ``SystemError(... returned a
+    result with an exception set)`` chained to it, and is still the user's Ctrl-C."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False

@@ -24,6 +24,9 @@ from navbench.level import (BOX_TOLERANCE, MAX_HEIGHT, MAX_POLYGON_VERTICES, MAX
 from navbench.levelgen import validate_free_space
 from navbench.names import check_name
 
+#: Largest level file read (bytes): a benchmark house is ~30 kB, MAX_SOLIDS walls ~ 1 MB.
+MAX_LEVEL_BYTES = 8 * 1024 * 1024
+
 
 # ----------------------------------------------------------------------------------- file I/O
 
@@ -243,18 +246,12 @@ def read_level_file(path: str | Path, validate: bool = True,
                     name: str | None = None) -> tuple[Level, str]:
     """:func:`load_level` that also returns the file's text (whose sha256 keys the level), read
     once so that the text hashed is the text validated."""
+    from navbench.safeio import loads_json, read_text
+
     path = Path(path)
-    if not path.is_file():
-        raise LevelError(f"{path}: no such level file")
-    try:
-        text = path.read_text()
-        doc = json.loads(text)
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise LevelError(f"{path}: not valid JSON ({e})") from None
-    except RecursionError:
-        raise LevelError(f"{path}: not valid JSON (nested too deeply)") from None
-    except OSError as e:
-        raise LevelError(f"{path}: cannot read the level file ({e.strerror})") from None
+    # safeio: a regular file of bounded size, bounded nesting, finite numbers (issue 34)
+    text = read_text(path, LevelError, "level file", MAX_LEVEL_BYTES)
+    doc = loads_json(text, str(path), LevelError)
     level = level_from_dict(doc, str(path))
     if name is not None and level.name != name:
         raise LevelError(f"{path}: name: the level calls itself {level.name!r} but is loaded as "
@@ -288,8 +285,10 @@ def level_path(name: str, root: str | Path = ".") -> Path:
 def resolve_level(name_or_path: str, root: str | Path = ".") -> Level:
     """Load a level by name (from ``levels/``) or by path to a ``.json`` file, whose level must
     be named after the file (its stem); a name must be a safe name."""
+    from navbench.safeio import names_a_file
+
     p = Path(name_or_path)
-    if p.suffix == ".json" or p.is_file():
+    if names_a_file(name_or_path):  # /dev/zero, a FIFO: read (and refused) as a file
         return load_level(p, name=p.stem)
     check_name("level name", name_or_path, LevelError)
     path = level_path(name_or_path, root)

@@ -176,3 +176,65 @@ def exclusive_output(path: str | Path, option: str | None = None, what: str = "t
                 tmp.unlink(missing_ok=True)
             except OSError:
                 pass
+
+
+# ------------------------------------------------- build folders beside an output (issue 34)
+
+#: The file in a build folder that proves navbench made it: the pid and start token of the
+#: process that did (:func:`navbench.proc.process_start_token`).
+BUILD_OWNER_FILE = ".navbench-build.json"
+
+
+#: Suffixes of the folders :func:`make_build_dir` makes (the report's build, publish's swap).
+BUILD_SUFFIXES = (".build", ".tmp")
+
+
+def make_build_dir(dest: str | Path, suffix: str = ".build") -> Path:
+    """A new empty folder ``.<dest name>.<random>.build`` beside ``dest`` that holds
+    :data:`BUILD_OWNER_FILE` (this process's pid and start token), so that a later run can
+    prove it is navbench's and that its maker is dead (:func:`remove_stale_build_dirs`)."""
+    import json
+    import tempfile
+
+    from navbench.proc import process_start_token
+
+    dest = Path(dest)
+    assert suffix in BUILD_SUFFIXES
+    build = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=suffix, dir=dest.parent))
+    owner = {"pid": os.getpid(), "start_token": process_start_token(os.getpid()), "dest": dest.name}
+    (build / BUILD_OWNER_FILE).write_text(json.dumps(owner, sort_keys=True))
+    return build
+
+
+def remove_stale_build_dirs(dest: str | Path) -> list[Path]:
+    """Remove the build folders of ``dest`` left by a process that was killed (``kill -9``
+    skips every cleanup) and return them. A folder is removed only when navbench provably made
+    it: a real folder (not a link) named like :func:`make_build_dir`'s whose
+    :data:`BUILD_OWNER_FILE` names ``dest`` and a pid that no longer runs the process that
+    wrote it (:func:`navbench.proc.pid_alive` with its start token). Anything else,
+    a folder of a live run included, is left alone."""
+    import json
+    import shutil
+
+    from navbench.proc import pid_alive
+
+    dest = Path(dest)
+    removed = []
+    if not dest.parent.is_dir():
+        return removed
+    found = [d for s in BUILD_SUFFIXES for d in dest.parent.glob(f".{dest.name}.*{s}")]
+    for d in sorted(found):
+        try:
+            if d.is_symlink() or not d.is_dir():
+                continue
+            owner = json.loads((d / BUILD_OWNER_FILE).read_text())
+            pid, token = owner["pid"], owner.get("start_token")
+            if owner.get("dest") != dest.name or not isinstance(pid, int) or isinstance(pid, bool):
+                continue
+        except (OSError, ValueError, KeyError, TypeError, RecursionError):
+            continue  # no proof of ownership: not ours to remove
+        if pid == os.getpid() or pid_alive(pid, token):
+            continue
+        shutil.rmtree(d, ignore_errors=True)
+        removed.append(d)
+    return removed

@@ -74,11 +74,12 @@ def parse_list(text: str | None) -> list[str]:
 def parse_estimator_options(items: list[str]) -> dict[str, dict]:
     """``["ours.optimizer=adam", "emission.steps=100"]`` -> ``{"ours": {...}, "emission": {...}}``.
 
-    Values are read as JSON when possible (numbers, lists, true/false), else kept as strings.
+    Values are read as JSON when possible (numbers, lists, true/false), else kept as strings;
+    NaN, infinities and values nested too deep are refused in one line
+    (:func:`navbench.safeio.parse_option_value`).
     """
-    import json
-
     from navbench.errors import ConfigError
+    from navbench.safeio import parse_option_value
 
     out: dict[str, dict] = {}
     for item in items:
@@ -86,10 +87,7 @@ def parse_estimator_options(items: list[str]) -> dict[str, dict]:
         name, dot, opt = key.partition(".")
         if not sep or not dot or not name or not opt:
             raise ConfigError(f"--option expects ESTIMATOR.KEY=VALUE, got {item!r}")
-        try:
-            val = json.loads(value)
-        except json.JSONDecodeError:
-            val = value
+        val = parse_option_value(value, f"--option {key}")
         out.setdefault(name.strip(), {})[opt.strip()] = val
     return out
 

@@ -16,6 +16,13 @@ from navbench.levelgen.validate import _distance_to_convex, validate_level
 
 # ----------------------------------------------------------------------------------- HouseExpo
 
+#: Most outline points of a HouseExpo document (one wall per edge; HouseExpo's own have < 100).
+#: Checked first: the self-crossing check is quadratic in pure Python (20 000 points: minutes).
+MAX_HOUSEEXPO_VERTICES = 1000
+#: Largest coordinate magnitude (m) in a HouseExpo document (a house, not a continent).
+MAX_HOUSEEXPO_COORD = 1e5
+
+
 def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Validate a HouseExpo document; returns ``verts (N, 2)``, ``bbox_min (2,)``, ``bbox_max (2,)``."""
     def bad(field: str, msg: str):
@@ -27,8 +34,9 @@ def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     def vec2(x, field):
         if (not isinstance(x, list) or len(x) != 2
                 or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
-                       for c in x)):
-            bad(field, f"expected [x, y] with finite numbers, got {x!r}")
+                       or abs(c) > MAX_HOUSEEXPO_COORD for c in x)):
+            bad(field, f"expected [x, y] with finite numbers of magnitude at most "
+                f"{MAX_HOUSEEXPO_COORD:g}, got {x!r}")
         return np.array([float(x[0]), float(x[1])])
 
     if "verts" not in doc:
@@ -36,6 +44,9 @@ def _parse_houseexpo(doc: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     verts = doc["verts"]
     if not isinstance(verts, list) or len(verts) < 3:
         bad("verts", "expected a list of at least 3 [x, y] points")
+    if len(verts) > MAX_HOUSEEXPO_VERTICES:  # before the self-crossing check, which is quadratic
+        bad("verts", f"{len(verts)} points; an outline may have at most {MAX_HOUSEEXPO_VERTICES} "
+            "(one wall per edge)")
     pts = np.array([vec2(p, f"verts[{k}]") for k, p in enumerate(verts)])
     if len(pts) > 3 and np.allclose(pts[0], pts[-1]):
         pts = pts[:-1]  # closed ring
@@ -168,6 +179,9 @@ def level_from_houseexpo(doc: Any, name: str, seed: int, size: float = DEFAULT_S
     P = [(_q((x - bmin[0]) * scale + m), _q((y - bmin[1]) * scale + m)) for x, y in pts]
     # drop vertices made duplicate by rounding
     P = [p for k, p in enumerate(P) if p != P[k - 1]]
+    if len(P) < 3 or abs(_poly_area(np.asarray(P, float))) <= 1e-9:  # e.g. one vertex at 1e300
+        raise LevelError("HouseExpo document: verts: the outline collapses to a line or a point "
+                         "once scaled to the level size (coordinates of absurd magnitude?)")
     poly = np.asarray(_ccw_tuple(P), float)
     width = _q((bmax[0] - bmin[0]) * scale + 2 * m)
     depth = _q((bmax[1] - bmin[1]) * scale + 2 * m)

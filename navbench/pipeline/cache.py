@@ -52,6 +52,7 @@ from navbench import __version__
 # where the cache is by default (re-exported: the report, which must never write over it, reads it too)
 from navbench.config import CACHE_ENV, DEFAULT_CACHE, config_hash, default_cache_root, read_json, to_jsonable  # noqa: F401
 from navbench.errors import ArtifactError
+from navbench.safeio import load_json
 
 from navbench.pipeline.ownership import BAD_NAME, MANIFEST, REFS_DIR, TMP_NAME, ensure_root, hold
 
@@ -129,6 +130,8 @@ class ArtifactStore:
         if not isinstance(files, dict):
             raise ArtifactError(f"{mf}: manifest has no file list")
         for rel, meta in files.items():
+            if not isinstance(meta, dict):  # a damaged manifest: one line, not an AttributeError
+                raise ArtifactError(f"{mf}: malformed entry for file {rel!r}")
             p = d / rel
             if not p.is_file():
                 raise ArtifactError(f"{d}: file {rel} is missing")
@@ -277,8 +280,8 @@ class ArtifactStore:
         if d.is_dir():
             for p in sorted(d.glob("*.json")):
                 try:
-                    out[p.stem] = [tuple(x) for x in json.loads(p.read_text())["artifacts"]]
-                except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+                    out[p.stem] = [tuple(x) for x in load_json(p, ArtifactError)["artifacts"]]
+                except (ArtifactError, KeyError, TypeError, ValueError):  # safeio: deep, FIFO
                     continue
         return out
 
@@ -300,11 +303,11 @@ class ArtifactStore:
             if stage is not None and a.stage != stage:
                 continue
             try:
-                man = json.loads((a.path / MANIFEST).read_text())
+                man = load_json(a.path / MANIFEST, ArtifactError)  # safeio: deep, FIFO, huge
                 size = sum(int(m["size"]) for m in man["files"].values())
                 out.append(ArtifactInfo(a.stage, a.key, a.path, size, man.get("created", ""),
                                         dict(man.get("inputs", {})), dict(man.get("config", {}))))
-            except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError):
+            except (OSError, ArtifactError, KeyError, TypeError, ValueError, AttributeError):
                 out.append(ArtifactInfo(a.stage, a.key, a.path, 0, "", {}, {}))
         out.sort(key=lambda i: (i.created, i.stage, i.key))
         return out

@@ -28,6 +28,12 @@ MAX_WORKERS = 1024           # worker processes
 MAX_EPISODES = 10_000_000    # episodes in one grid
 MAX_SEED = 2**63 - 1         # any seed numpy accepts
 MAX_GRID_CELLS = 2**28       # cells of a fitted voxel grid (the paper's: 800 000)
+#: Largest magnitude of any float setting without its own upper bound (issue 34: ``lr = 1e308``
+#: or a tolerance of 1e300 is finite but absurd; it overflows to inf inside a kernel).
+MAX_FLOAT = 1e6
+#: Smallest lattice spacing (m) of the planner and the localiser: each allocates a lattice over
+#: the level (20 m at 1e-9 m would be 4e20 points), so the floor is refused before allocation.
+MIN_LATTICE_STEP = 0.01
 
 
 # ------------------------------------------------------------------------ value checks
@@ -69,6 +75,8 @@ class Num:
         if ((self.lo is not None and (v <= self.lo if self.open_lo else v < self.lo))
                 or (self.hi is not None and (v >= self.hi if self.open_hi else v > self.hi))):
             raise _Invalid(f"expected {what}, got {v!r}")
+        if self.kind == "float" and abs(v) > MAX_FLOAT:  # finite but absurd (issue 34)
+            raise _Invalid(f"expected {what} of magnitude at most {MAX_FLOAT:g}, got {v!r}")
 
 
 def _int(lo=0, hi=None) -> Num:
@@ -144,7 +152,8 @@ def _check_estimators(v: Any) -> None:
 #: Ranges of FitConfig fields (navbench.worldmodel.fit). ``steps`` and ``seed`` are the profile's
 #: own ``[fit] steps`` / ``[fit] seed``. Fields not listed: numbers >= 0, strings as FitConfig checks.
 FIT_RANGES: dict[str, Any] = {
-    "lr": _pos(), "sigma2_init": _pos(), "sigma2_lr": Num(lo=0), "min_sigma2": _pos(),
+    "lr": Num(lo=0, hi=10, open_lo=True), "sigma2_init": _pos(), "sigma2_lr": Num(lo=0, hi=10),
+    "min_sigma2": _pos(),
     "images_per_batch": _int(1, 100_000), "pixels_per_image": _int(1, 1_000_000),
     "grid_shape": _int(1, 65_536), "margin_z": Num(lo=0), "max_range": _pos(),
     "n_samples": _int(1, 100_000), "tau": Num(lo=0, hi=1, open_lo=True, open_hi=True),
@@ -156,7 +165,7 @@ FIT_RANGES: dict[str, Any] = {
 #: Ranges of EpisodeConfig fields (navbench.nav.episode) and of its planner/controller tables.
 EPISODE_RANGES: dict[str, Any] = {
     "max_steps": _int(1, 1_000_000), "goal_tolerance": _pos(), "max_replans": _int(0, 1_000_000),
-    "planner.step": _pos(), "planner.goal_tolerance": _pos(), "planner.edge_samples": _int(1, 100_000),
+    "planner.step": Num(lo=MIN_LATTICE_STEP, hi=10), "planner.goal_tolerance": _pos(), "planner.edge_samples": _int(1, 100_000),
     "planner.max_expansions": _int(1, 100_000_000),
     "controller.heading_threshold": _pos(), "controller.waypoint_tolerance": _pos(),
     "controller.lookahead": _int(1, 100_000), "controller.max_turn": _pos(), "controller.max_step": _pos(),
@@ -171,6 +180,16 @@ OPTION_RANGES: dict[str, Any] = {
     "steps": _int(1, 100_000), "pixels": _int(1, 1_000_000), "threads": _int(1, MAX_WORKERS),
     "sigma2": _pos(), "default_sigma2": _pos(), "step": _pos(), "max_range": _pos(),
     "pixel_scale": _pos(),
+}
+#: Ranges of LocalizerConfig fields (navbench.localize; ``[navigation] goal_localizer`` and
+#: ``localize-eval -o``). Fields not listed: numbers >= 0 (floats at most MAX_FLOAT).
+LOCALIZER_RANGES: dict[str, Any] = {
+    "lattice_step": Num(lo=MIN_LATTICE_STEP, hi=10), "bins": _int(4, 4096), "rows": _int(1, 64),
+    "k": _int(1, 1000), "max_candidates": _int(1, 100_000), "min_candidates": _int(0, 100_000),
+    "truncate_top": _int(0, 10_000_000), "refine_rounds": _int(0, 1000),
+    "refine_stride": _int(1, 64), "gn_pixels": _int(1, 1_000_000), "feature_range": _pos(),
+    "row_top": Num(lo=-10, hi=10), "row_step": Num(lo=-10, hi=10),
+    "depth_feature": ("range", "inverse"),
 }
 
 
@@ -268,7 +287,7 @@ def _check_goal_localizer(overrides: Any) -> None:
 
     if "k" in overrides:
         raise _Invalid("k: the image-goal stage asks for two hypotheses; it is not a setting")
-    _check_table(LocalizerConfig, overrides, {})
+    _check_table(LocalizerConfig, overrides, LOCALIZER_RANGES)
     for k, v in overrides.items():
         if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
             raise _Invalid(f"{k}: must be >= 0, got {v!r}")
@@ -326,6 +345,18 @@ def _check_options(options: Any, section_of: Callable[[str], str] | None = None,
             raise _Invalid(f"{section}{sep}{e}") from None
         except (NavbenchError, ValueError, TypeError) as e:  # a plugin's options may raise these
             raise _Invalid(f"{section}: {e}") from None
+
+
+def check_localizer_options(options: dict, where: str) -> None:
+    """Localiser settings given outside a profile (``localize-eval -o``): the fields of
+    :class:`navbench.localize.LocalizerConfig` with the types and :data:`LOCALIZER_RANGES` of
+    ``[navigation] goal_localizer``; :class:`ConfigError` naming ``where`` and the setting."""
+    from navbench.localize import LocalizerConfig
+
+    try:
+        _check_table(LocalizerConfig, options, LOCALIZER_RANGES)
+    except _Invalid as e:
+        raise ConfigError(f"{where} {e}") from None
 
 
 def check_estimator_options(options: dict[str, dict], where: str) -> None:

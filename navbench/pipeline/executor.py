@@ -259,6 +259,27 @@ class RayExecutor:
                 self.ray.cancel(ref, force=True)
 
 
+def check_executor(kind: str, workers: int | None = 0, address: str | None = None) -> None:
+    """The checks of :func:`make_executor` that start nothing (the name, ``workers``, an
+    ``address`` without Ray, Ray installed, the address reachable): run before a run is
+    recorded, so a refused ``--executor``/``--address`` leaves no ``failed`` run that the next
+    run would claim to resume (issue 34)."""
+    if kind not in EXECUTORS:
+        raise ConfigError(f"unknown executor {kind!r}; choose one of {EXECUTORS}")
+    if workers is not None and workers < 0:
+        raise ConfigError(f"workers must be >= 0, got {workers}")
+    if kind != "ray":
+        if address:
+            raise ConfigError("--address is only for --executor ray")
+        return
+    import importlib.util
+
+    if importlib.util.find_spec("ray") is None:
+        raise ConfigError("the ray executor needs Ray: pip install 'navbench[ray]'")
+    if address:
+        check_reachable(address)
+
+
 def make_executor(kind: str = "local", workers: int = 0, address: str | None = None):
     """An executor by name; ``workers`` 0 means the CPU count, 1 (local) runs in-process."""
     if kind not in EXECUTORS:

@@ -265,14 +265,12 @@ def available_profiles() -> list[str]:
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML ({e})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not valid TOML (not UTF-8 text)") from None
-    except OSError as e:
-        raise ConfigError(f"{path}: cannot read the profile ({e.strerror or e})") from None
+    """The TOML document of a profile file: a regular file of bounded size, bounded nesting and
+    finite numbers (:func:`navbench.safeio.load_toml`; a FIFO or a device is refused, never
+    read)."""
+    from navbench.safeio import load_toml
+
+    return load_toml(path, ConfigError, "profile")
 
 
 def _is_path(name_or_path: str) -> bool:
@@ -288,9 +286,11 @@ def profile_path(name_or_path: str, where: str = "--profile", relative_to: Path 
         path = Path(name_or_path).expanduser()
         if relative_to is not None and not path.is_absolute():
             path = relative_to / path
-        if not path.is_file():
-            what = "is a folder, not a .toml file" if path.is_dir() else "no such file"
-            raise ConfigError(f"{where} {name_or_path}: {what}")
+        if path.is_dir():
+            raise ConfigError(f"{where} {name_or_path}: is a folder, not a .toml file")
+        if not path.exists() and not path.is_symlink():
+            raise ConfigError(f"{where} {name_or_path}: no such file")
+        # anything else that exists (a FIFO, a device, a dangling link) is refused by _read_toml
         if path.suffix != ".toml":
             raise ConfigError(f"{where} {name_or_path}: not a profile (a profile file ends in .toml)")
         return path

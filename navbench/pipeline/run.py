@@ -108,13 +108,15 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     """Record a run around the block; yields its run id.
 
     The run row starts as ``running``; it ends ``done`` when the block returns, ``interrupted``
-    on Ctrl-C (``KeyboardInterrupt``) and ``failed`` on any other exception, which propagate.
+    on Ctrl-C (``KeyboardInterrupt``) and ``failed`` on any other exception, which propagate;
+    a :class:`~navbench.errors.NavbenchError` (bad input) before the run stored any row deletes
+    the run instead (:meth:`ResultsDB.discard_run`), so no later run resumes it.
     With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
     cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
     """
     from navbench.config import config_hash, to_jsonable
 
-    from navbench.errors import ConfigError, LevelError
+    from navbench.errors import NavbenchError
 
     cfg = to_jsonable(config)
     run_id = db.start_run(profile, command, cfg, config_hash(cfg))
@@ -125,9 +127,9 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     except KeyboardInterrupt:
         status = "interrupted"
         raise
-    except (ConfigError, LevelError):
+    except NavbenchError:
         # bad input (a misspelt level, an option the stage refuses): a run that stored nothing
-        # is not recorded as one (issue 35 §5); one that stored rows stays, marked failed
+        # is not recorded as one, so no later run "resumes" it; one that stored rows stays, failed
         if db.discard_run(run_id):
             status = None
         raise
@@ -302,6 +304,9 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     protected = protected_paths(db if db is None or isinstance(db, str) else db.url, cache_root)
     if report_dir is not None:
         check_report_dir(report_dir, "--report", protected)  # before hours of work, not after
+    from navbench.pipeline.executor import check_executor
+
+    check_executor(executor, prof.workers, address)  # before the run row (no failed run to resume)
     progress = progress or SilentProgress()
     with open_db(db) as rdb:
         ctx = stage_context(progress, rdb, cache_root=cache_root)

@@ -351,12 +351,15 @@ def make_task_file(level_name_or_path: str, count: int = 200, seed: int = 0, out
     """
     from navbench.levelio import read_level_file, level_path
 
+    from navbench.safeio import names_a_file
+
     p = Path(level_name_or_path)
-    if not (p.suffix == ".json" or p.is_file()):
+    if not names_a_file(level_name_or_path):
         check_name("level name", level_name_or_path, TaskError)
         p = level_path(level_name_or_path, root)
-    if not p.is_file():
-        raise TaskError(f"{p}: no such level file")
+    from navbench.safeio import check_regular_file
+
+    check_regular_file(p, TaskError, "level file")  # missing, a directory, a FIFO: one line
     level, text = read_level_file(p, name=p.stem)  # its name becomes the task file's name
     tasks = sample_tasks(level, count, seed)
     folder = Path(out_dir) if out_dir is not None else Path(root) / "tasks"

@@ -75,19 +75,18 @@ def publish(src_dir: Path, dest: Path, protected: list[Path] | None = None,
     so nothing that navbench did not create is removed.
     """
     import shutil
-    import tempfile
 
     protected = protected if protected is not None else protected_paths()
     dest = check_report_dir(dest, option, protected)
-    from navbench.outpath import writing
+    from navbench.outpath import BUILD_OWNER_FILE, make_build_dir, writing
 
     with writing(dest, option, "the report"):
         dest.parent.mkdir(parents=True, exist_ok=True)
-        work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent))
+        work = make_build_dir(dest, ".tmp")  # owned: a killed run's is removed by the next
     try:
         with writing(dest, option, "the report"):  # disk full, a race: one line
             new, old = work / "new", work / "old"
-            shutil.copytree(src_dir, new, ignore=shutil.ignore_patterns("manifest.json"))
+            shutil.copytree(src_dir, new, ignore=shutil.ignore_patterns("manifest.json", BUILD_OWNER_FILE))
             mark_report_dir(new)
             if dest.exists():
                 check_report_dir(dest, option, protected)  # still a published report just before the swap

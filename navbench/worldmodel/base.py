@@ -104,9 +104,10 @@ def read_kind(path) -> str:
     Reads only the header; :class:`ArtifactError` naming ``path`` when the file is missing, not
     an ``.npz``, has no JSON ``header`` or a ``kind`` that is not a string.
     """
+    from navbench.safeio import check_regular_file
+
     path = Path(path)
-    if not path.is_file():
-        raise ArtifactError(f"{path}: no such map file")
+    check_regular_file(path, ArtifactError, "map file")  # missing, a directory, a FIFO: one line
     try:
         with np.load(path, allow_pickle=False) as z:
             if "header" not in z.files:

@@ -15,6 +15,7 @@ from typing import Callable
 
 from navbench.worldmodel.evaluate import evaluate_map
 from navbench.worldmodel.fit import FitConfig, fit_map
+from navbench.worldmodel.grid import check_fitted_finite
 from navbench.worldmodel.views import Views, heldout_split
 
 #: The default split: every 10th view held out (10 % of a sequence; 30 of 300 frames).
@@ -39,6 +40,7 @@ def fit_views(views: Views, config: FitConfig, heldout: Views | None = None,
     else:
         train, held, split = views, heldout, "given"
     vmap, metrics = fit_map(train, config, progress=progress)
+    check_fitted_finite(vmap, metrics, config)
     out = {**dict(metrics), **evaluate_map(vmap, level, held)}
     out.update(train_views=len(train), split=split)
     return vmap, out

@@ -254,9 +254,10 @@ def load_map(path) -> VoxelMap:
     so a file declaring an absurd grid (a compressed npz can declare terabytes in a few bytes)
     is refused instead of exhausting the memory.
     """
+    from navbench.safeio import check_regular_file
+
     path = Path(path)
-    if not path.is_file():
-        raise ArtifactError(f"{path}: no such map file")
+    check_regular_file(path, ArtifactError, "map file")  # missing, a directory, a FIFO: one line
     try:
         with np.load(path, allow_pickle=False) as z:
             missing = {"occ", "col", "header"} - set(z.files)
@@ -407,3 +408,21 @@ def slice_scores(vmap, level, mode: str = "band", z_low: float = 0.05,
         raise ArtifactError("slice scores: the map's xy cells do not match the level raster "
                             "(build the grid with grid_for_level)")
     return cell_tolerance_scores(occ2d[:nx, :ny], true[:nx, :ny], tol_cells)
+
+
+def check_fitted_finite(vmap: VoxelMap, metrics: dict, config=None) -> None:
+    """Refuse a fit whose parameters are not all finite (a learning rate too large for the data
+    makes Adam overflow): :class:`~navbench.errors.ConfigError` in one line, raised before the
+    map is saved, so a diverged fit is never cached nor scored (issue 34)."""
+    from navbench.errors import ConfigError
+
+    bad = [name for name, a in (("occupancy", vmap.occ), ("colour", vmap.col))
+           if not np.isfinite(np.asarray(a)).all()]
+    sigma2 = metrics.get("sigma2") if isinstance(metrics, dict) else None
+    if isinstance(sigma2, float) and not np.isfinite(sigma2):
+        bad.append("sigma2")
+    if bad:
+        lr = getattr(config, "lr", None)
+        raise ConfigError(f"fit-map: the fit diverged: non-finite {', '.join(bad)} parameters"
+                          f"{f' with [fit] lr = {lr:g}' if lr is not None else ''}; lower the "
+                          "learning rate (nothing was cached)")

@@ -28,6 +28,7 @@ from navbench.worldmodel.views import (
     _intrinsics_from,
     check_intrinsics,
     check_views_memory,
+    json_number,
 )
 
 # ------------------------------------------------------------------------------ TUM RGB-D
@@ -149,13 +150,12 @@ def _read_list(path: Path, n_fields: int, layout: str) -> list[tuple[float, list
     exactly ``n_fields`` more whitespace-separated fields (``layout`` names them in the error),
     and a finite timestamp. Errors name ``path:line``.
     """
-    if not path.is_file():
+    if not path.exists():
         raise ArtifactError(f"{path.parent}: missing {path.name} (TUM RGB-D layout: rgb.txt, "
                             f"depth.txt, groundtruth.txt, rgb/, depth/)")
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ArtifactError(f"{path}: unreadable ({type(e).__name__}: {e})") from None
+    from navbench.safeio import read_text
+
+    text = read_text(path, ArtifactError, "TUM list file")
     out = []
     for k, line in enumerate(text.splitlines(), 1):
         line = line.strip()
@@ -175,6 +175,13 @@ def _read_list(path: Path, n_fields: int, layout: str) -> list[tuple[float, list
     return out
 
 
+#: Farthest camera position (m) an imported sequence may have (a building, not a planet).
+MAX_POSITION_M = 1e4
+#: Largest camera height (m) and depth scale (PNG units per metre) read.
+MAX_CAMERA_HEIGHT_M = 100.0
+MAX_DEPTH_SCALE = 1e9
+
+
 def _read_groundtruth(path: Path) -> list[tuple[float, np.ndarray, int]]:
     """``groundtruth.txt`` as ``(timestamp, T_wc 4x4, line number)``; every pose must be seven
     finite numbers with a unit quaternion (within :data:`QUAT_NORM_TOL`, then normalised)."""
@@ -188,6 +195,9 @@ def _read_groundtruth(path: Path) -> list[tuple[float, np.ndarray, int]]:
                 raise ArtifactError(f"{path}:{k}: pose value {_short(v)} is not a number") from None
         if not all(math.isfinite(v) for v in p):
             raise ArtifactError(f"{path}:{k}: pose has NaN or infinite values")
+        if max(abs(v) for v in p[:3]) > MAX_POSITION_M:  # finite but absurd (issue 34)
+            raise ArtifactError(f"{path}:{k}: camera position {' '.join(vals[:3])} is more than "
+                                f"{MAX_POSITION_M:g} m from the origin")
         qn = math.sqrt(sum(v * v for v in p[3:]))
         if not abs(qn - 1.0) <= QUAT_NORM_TOL:
             raise ArtifactError(f"{path}:{k}: quaternion qx qy qz qw = {' '.join(vals[3:])} has "
@@ -229,8 +239,11 @@ def _open_listed(d: Path, row: tuple, list_path: Path):
     name, k = row[1][0], row[2]
     path = d / name
     where = f"{list_path}:{k}"
-    if not path.is_file():
+    if not path.exists():
         raise ArtifactError(f"{where}: {name}: no such file")
+    from navbench.safeio import check_regular_file
+
+    check_regular_file(path, ArtifactError, "image file")  # a FIFO would block PIL for ever
     try:
         return Image.open(path), path, where
     except Exception as e:  # PIL raises OSError, SyntaxError, ValueError, DecompressionBombError
@@ -279,13 +292,20 @@ def first_rgb_size(directory) -> tuple[int, int]:
         return im.size
 
 
-def _positive_number(value, where: str) -> float:
+def _positive_number(value, where: str, json_only: bool = False, hi: float = math.inf,
+                     lo: float = 1e-3) -> float:
+    """``value`` as a positive finite float; ``json_only`` (a value read from a JSON file): a
+    number there, not a boolean or a numeric string."""
+    if json_only and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        raise ArtifactError(f"{where}: {value!r} is not a number")
     try:
         v = float(value)
     except (TypeError, ValueError):
         raise ArtifactError(f"{where}: {value!r} is not a number") from None
     if isinstance(value, bool) or not (math.isfinite(v) and v > 0):
         raise ArtifactError(f"{where}: must be a positive finite number, got {value!r}")
+    if not lo <= v <= hi:  # finite but absurd (issue 34): 1e-320 m, 1e308 units per metre
+        raise ArtifactError(f"{where}: must be in [{lo:g}, {hi:g}], got {value!r}")
     return v
 
 
@@ -350,13 +370,10 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
         raise ConfigError(f"max_dt must be a finite number of seconds >= 0, got {max_dt!r}")
     info_path = d / "intrinsics.json"
     info = {}
-    if info_path.is_file():
-        try:
-            info = json.loads(info_path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as e:
-            raise ArtifactError(f"{info_path}: not valid JSON ({e})") from None
-        except OSError as e:
-            raise ArtifactError(f"{info_path}: unreadable ({e.strerror or e})") from None
+    if info_path.exists():  # a directory or FIFO of that name is refused by load_json
+        from navbench.safeio import load_json
+
+        info = load_json(info_path, ArtifactError, "intrinsics file")
         if not isinstance(info, dict):
             raise ArtifactError(f"{info_path}: expected a JSON object, got {type(info).__name__}")
     if intrinsics is None:
@@ -367,17 +384,19 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
     else:
         check_intrinsics(intrinsics, f"intrinsics ({intrinsics_source})")
     if depth_scale is not None:
-        scale = _positive_number(depth_scale, "depth_scale")
+        scale = _positive_number(depth_scale, "depth_scale", hi=MAX_DEPTH_SCALE)
     else:
-        scale = _positive_number(info.get("depth_scale", TUM_DEPTH_SCALE), f"{info_path}: depth_scale")
+        scale = _positive_number(info.get("depth_scale", TUM_DEPTH_SCALE), f"{info_path}: depth_scale",
+                                 json_only=True, hi=MAX_DEPTH_SCALE)
     if camera_height is not None:
-        camera_height = _positive_number(camera_height, "camera_height")
+        camera_height = _positive_number(camera_height, "camera_height", hi=MAX_CAMERA_HEIGHT_M)
     elif info.get("camera_height") is not None:
-        camera_height = _positive_number(info["camera_height"], f"{info_path}: camera_height")
+        camera_height = _positive_number(info["camera_height"], f"{info_path}: camera_height",
+                                         json_only=True, hi=MAX_CAMERA_HEIGHT_M)
     box = None
     if info.get("box"):
         try:
-            box = tuple(tuple(float(c) for c in corner) for corner in info["box"])
+            box = tuple(tuple(json_number(c) for c in corner) for corner in info["box"])
             lo, hi = np.asarray(box[0]), np.asarray(box[1])
             ok = len(box) == 2 and lo.shape == hi.shape == (3,) and np.all(np.isfinite(lo + hi))
         except (TypeError, ValueError, IndexError):

@@ -80,8 +80,9 @@ def check_planar(rows, path: Path, max_tilt_deg: float = MAX_TILT_DEG) -> None:
 def read_planar_poses(path, max_tilt_deg: float = MAX_TILT_DEG) -> list[tuple[float, np.ndarray, int]]:
     """A TUM pose file as ``(timestamp, planar pose (3,), line)`` rows, tilt-checked."""
     p = Path(path)
-    if not p.is_file():
-        raise ArtifactError(f"{p}: no such file" if not p.exists() else f"{p}: not a file")
+    from navbench.safeio import check_regular_file
+
+    check_regular_file(p, ArtifactError, "TUM pose file")  # missing, a directory, a FIFO: one line
     rows = _read_groundtruth(p)
     if not rows:
         raise ArtifactError(f"{p}: no poses (no data lines)")

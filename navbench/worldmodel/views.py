@@ -132,6 +132,11 @@ def validate_views(v: Views, where: str, check_values: bool = True) -> None:
                                     f"where valid")
 
 
+#: Largest image side (px) and focal length (px) of a camera read from a file or option.
+MAX_IMAGE_SIDE = 65_536
+MAX_FOCAL_PX = 1e7
+
+
 def check_intrinsics(intr: Intrinsics, where: str) -> Intrinsics:
     """Raise :class:`ArtifactError` (naming ``where``) unless ``intr`` is a usable camera.
 
@@ -140,10 +145,14 @@ def check_intrinsics(intr: Intrinsics, where: str) -> Intrinsics:
     """
     if not (intr.width >= 1 and intr.height >= 1):
         raise ArtifactError(f"{where}: width and height must be >= 1, got {intr.width}x{intr.height}")
+    if intr.width > MAX_IMAGE_SIDE or intr.height > MAX_IMAGE_SIDE:  # finite but absurd (issue 34)
+        raise ArtifactError(f"{where}: width and height must be at most {MAX_IMAGE_SIDE} px, got "
+                            f"{intr.width}x{intr.height}")
     for name in ("fx", "fy"):
         v = getattr(intr, name)
-        if not (math.isfinite(v) and v > 0):
-            raise ArtifactError(f"{where}: {name} must be a positive finite focal length (px), got {v!r}")
+        if not (math.isfinite(v) and 0 < v <= MAX_FOCAL_PX):
+            raise ArtifactError(f"{where}: {name} must be a positive finite focal length (px) of at "
+                                f"most {MAX_FOCAL_PX:g}, got {v!r}")
     for name, size in (("cx", intr.width), ("cy", intr.height)):
         v = getattr(intr, name)
         if not (math.isfinite(v) and 0 <= v <= size):
@@ -152,13 +161,22 @@ def check_intrinsics(intr: Intrinsics, where: str) -> Intrinsics:
     return intr
 
 
+def json_number(v) -> float:
+    """``float(v)`` for a JSON number; ``TypeError`` for anything else, booleans and numeric
+    strings included (``float(True)`` is 1.0 and ``float("640")`` 640.0: neither is a number
+    the file wrote, issue 34)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise TypeError(f"{v!r} is not a number")
+    return float(v)
+
+
 def _intrinsics_from(d, where: str) -> Intrinsics:
     try:
-        w, h = float(d["width"]), float(d["height"])
+        w, h = json_number(d["width"]), json_number(d["height"])
         if not (w.is_integer() and h.is_integer()):
             raise ValueError
-        intr = Intrinsics(int(w), int(h), float(d["fx"]), float(d["fy"]),
-                          float(d["cx"]), float(d["cy"]))
+        intr = Intrinsics(int(w), int(h), json_number(d["fx"]), json_number(d["fy"]),
+                          json_number(d["cx"]), json_number(d["cy"]))
     except (KeyError, TypeError, ValueError, OverflowError):
         raise ArtifactError(f"{where}: missing or malformed intrinsics (width, height: whole "
                             f"numbers; fx, fy, cx, cy: numbers)") from None
@@ -335,12 +353,11 @@ def load_views(path, mmap: bool = True) -> Views:
     path = Path(path)
     if path.is_dir():
         hp = path / "views.json"
-        if not hp.is_file():
+        if not hp.exists():
             raise ArtifactError(f"{path}: not a views artifact (no views.json)")
-        try:
-            header = json.loads(hp.read_text())
-        except json.JSONDecodeError as e:
-            raise ArtifactError(f"{hp}: not valid JSON ({e})") from None
+        from navbench.safeio import load_json
+
+        header = load_json(hp, ArtifactError, "views header", finite=False)
         arrays = _read_compressed(path) if (path / COMPRESSED_FILE).is_file() else {}
         for name in _ARRAYS:
             if name in arrays:
@@ -370,6 +387,10 @@ def load_views(path, mmap: bool = True) -> Views:
         except Exception as e:
             raise ArtifactError(f"{path}: unreadable views file ({type(e).__name__}: {e})") from None
     else:
+        from navbench.safeio import check_regular_file
+
+        if path.exists():  # a FIFO or device: refused by stat, never opened
+            check_regular_file(path, ArtifactError, "views file")
         raise ArtifactError(f"{path}: no such views artifact")
     return _from_header(header, arrays, str(path))
 

@@ -145,3 +145,25 @@ def project(tmp_path, monkeypatch):
     monkeypatch.chdir(proj)
     monkeypatch.delenv("NAVBENCH_DB", raising=False)
     return proj
+
+
+def db_row_counts(root: Path) -> dict[str, int]:
+    """``{"<db file>:<table>": rows}`` of every SQLite database under ``root`` (the invariant
+    "nothing scored": a refused input adds no row to any table, no run either)."""
+    import sqlite3
+
+    out = {}
+    for db in sorted(Path(root).rglob("*.db")):
+        try:
+            with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1) as con:
+                for (t,) in con.execute("SELECT name FROM sqlite_master WHERE type='table'").fetchall():
+                    out[f"{db.relative_to(root)}:{t}"] = con.execute(f'SELECT count(*) FROM "{t}"').fetchone()[0]
+        except sqlite3.Error:
+            out[str(db.relative_to(root))] = -1
+    return out
+
+
+def removed_or_changed(before: dict, after: dict) -> list[str]:
+    """Files of ``before`` that are gone or different in ``after`` (the invariant "nothing
+    removed that was there")."""
+    return [p for p, v in before.items() if after.get(p) != v]

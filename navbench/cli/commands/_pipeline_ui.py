@@ -19,7 +19,13 @@ def run_with_ui(body, json_mode: bool = False):
     try:
         with ui:
             return body(ui)
-    except KeyboardInterrupt:
+    except BaseException as e:
+        from navbench.errors import caused_by_interrupt
+
+        # Ctrl-C, also when it arrived inside a numba kernel (a SystemError chained to the
+        # KeyboardInterrupt: a standalone fit-map printed that chain)
+        if not caused_by_interrupt(e) or isinstance(e, SystemExit):
+            raise
         # exit 130 ourselves: the CLI shell would turn it into exit status 0
         ui.console.print("interrupted: rerun the same command to finish; stored episodes are kept",
                          style="yellow")

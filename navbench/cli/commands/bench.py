@@ -80,7 +80,7 @@ def bench(
                                 help=f"Timed repeats per measurement {default('5 with --quick, else 20')}."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of the table."),
     level: str = typer.Option("house-1", "--level", help="Level name (levels/NAME.json) or file."),
-    seed: int = typer.Option(0, "--seed", help="Seed of every pose, pixel, walk and task drawn."),
+    seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Seed of every pose, pixel, walk and task drawn."),
     workers: int = typer.Option(0, "--workers", min=0, max=MAX_WORKERS,
                                 help="Local worker processes of the end-to-end run (0: CPU count)."),
     e2e_tasks: int = typer.Option(None, "--e2e-tasks", min=0, max=MAX_TASKS,

@@ -76,6 +76,11 @@ def register(app: typer.Typer) -> None:
             except _Invalid as e:
                 raise ConfigError(f"--device {device}: {str(e).removeprefix('device: ')}") from None
             prof = dataclasses.replace(prof, fit={**prof.fit, "device": device})
+        from navbench.pipeline.stages.imported import check_views_spec
+
+        for spec, what in ((views, "--views"), (heldout, "--heldout")):
+            if spec is not None:
+                check_views_spec(spec, what)  # before the database is opened
         with open_db(db) as rdb, PipelineUI(json_mode=json_out) as ui:
             ctx = stage_context(ui, rdb, force={"fit-map"} if force else set())
             if _profile_route(ctx, level, views):
@@ -145,9 +150,10 @@ def _fit_given_views(ctx, prof, level, views, heldout, heldout_every, opts, came
     if camera is not None:
         raise ConfigError("--camera: given views carry their own camera (intrinsics); it applies "
                           "only to LEVEL's collected views")
-    lv = make_level_stage(ctx, LevelConfig.for_profile(level, prof)) if level is not None else None
     cfg = FitViewsConfig(prof.fit_steps, prof.fit_seed, dict(prof.fit), heldout_every)
     cfg.fit_config()  # a bad fit option fails before any views are read
     train, train_key = resolve_views(views, ctx, opts, "--views")
     held, held_key = resolve_views(heldout, ctx, opts, "--heldout") if heldout is not None else (None, None)
+    # the level (recorded in the database) only once the views read: bad views record nothing
+    lv = make_level_stage(ctx, LevelConfig.for_profile(level, prof)) if level is not None else None
     return fit_views_stage(ctx, train, train_key, cfg, held, held_key, lv)

@@ -59,7 +59,9 @@ def register(app: typer.Typer) -> None:
         changes = changes.upper() if changes else None
         camera_by_name(camera)
         from navbench.errors import ConfigError
+        from navbench.pipeline.stages.track_eval import check_map_spec
 
+        check_map_spec(map_)  # before the database is opened (no level row, no run row)
         if sets and map_ != "fit":
             raise ConfigError(f"--set: changes the profile's map settings, which only --map fit reads (--map {map_})")
         from navbench.pipeline.overrides import apply_sets
@@ -123,10 +125,9 @@ def register(app: typer.Typer) -> None:
 def _localizer_config(items: list[str]):
     """``--option KEY=VALUE`` items applied to the default :class:`LocalizerConfig` (values read
     as JSON when they parse, else kept as strings)."""
-    import json
-
     from navbench.errors import ConfigError
     from navbench.localize import LocalizerConfig
+    from navbench.safeio import parse_option_value
     from navbench.track.base import config_from_options
 
     opts = {}
@@ -134,10 +135,12 @@ def _localizer_config(items: list[str]):
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"--option expects KEY=VALUE, got {item!r}")
-        try:
-            opts[key.strip()] = json.loads(value)
-        except json.JSONDecodeError:
-            opts[key.strip()] = value
+        opts[key.strip()] = parse_option_value(value, f"--option {key.strip()}")
+    from navbench.pipeline.checks import check_localizer_options
+
+    # the ranges of [navigation] goal_localizer: a lattice_step of 1e-9 m is refused before the
+    # bank allocates its lattice (issue 34)
+    check_localizer_options({k: v for k, v in opts.items() if hasattr(LocalizerConfig, k)}, "--option")
     base = LocalizerConfig()
     for k, v in list(opts.items()):
         d = getattr(base, k, None)

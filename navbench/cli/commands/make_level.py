@@ -87,8 +87,6 @@ def register(app: typer.Typer) -> None:
         changes: int = typer.Option(None, "--changes", help="Furniture edits with --changed-from."),
     ):
         """Generate a level and write levels/NAME.json in the current directory."""
-        import json
-
         from navbench.errors import ConfigError, LevelError
         from navbench import levelgen
 
@@ -118,15 +116,15 @@ def register(app: typer.Typer) -> None:
         if from_houseexpo is not None:
             if kind != "house" or rooms is not None:  # (the outline is the document's)
                 raise ConfigError("--from-houseexpo takes no --kind or --rooms")
+            from navbench.safeio import load_json
+
+            doc = load_json(from_houseexpo, LevelError, "HouseExpo file")
             try:
-                doc = json.loads(from_houseexpo.read_text())
-            except FileNotFoundError:
-                raise LevelError(f"{from_houseexpo}: no such file") from None
-            except (json.JSONDecodeError, UnicodeDecodeError) as e:
-                raise LevelError(f"{from_houseexpo}: not valid JSON ({e})") from None
-            level = levelgen.level_from_houseexpo(
-                doc, name, seed, size=levelgen.DEFAULT_SIZE if size is None else size,
-                obstacles=8 if obstacles is None else obstacles)
+                level = levelgen.level_from_houseexpo(
+                    doc, name, seed, size=levelgen.DEFAULT_SIZE if size is None else size,
+                    obstacles=8 if obstacles is None else obstacles)
+            except LevelError as e:  # name the file the user gave, not "HouseExpo document"
+                raise LevelError(f"{from_houseexpo}: {str(e).removeprefix('HouseExpo document: ')}") from None
         else:
             level = levelgen.make_level(name, seed, kind=kind, size=size, rooms=rooms,
                                         obstacles=obstacles)

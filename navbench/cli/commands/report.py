@@ -35,8 +35,6 @@ def report(
     from rich.markup import escape
 
     import shutil
-    import tempfile
-    from pathlib import Path
 
     from navbench.report.publish import check_report_dir, protected_paths, publish
     from navbench.results.db import ResultsDB
@@ -44,7 +42,7 @@ def report(
     from navbench.report.build import build_report
 
     from navbench.nav.presets import get_preset
-    from navbench.outpath import writing
+    from navbench.outpath import make_build_dir, remove_stale_build_dirs, writing
 
     if preset is not None:
         get_preset(preset, "--preset")
@@ -73,7 +71,10 @@ def report(
                 err_console.print(f"[yellow]warning:[/] {escape(mixed)}", markup=True)
         with writing(dest, "--out", "the report"):
             dest.parent.mkdir(parents=True, exist_ok=True)
-            build = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".build", dir=dest.parent))
+            # a report killed by SIGKILL left its build folder: remove those whose maker is
+            # provably dead (their owner file), then build in a new one that records us
+            remove_stale_build_dirs(dest)
+            build = make_build_dir(dest)
         try:
             with writing(dest, "--out", "the report"):  # a write that still fails: one line
                 build_report(rdb, build, load_trajectory=load_trajectory, load_map=load_map,

@@ -11,7 +11,7 @@ from navbench.cli._help import default
 def sample_tasks_cmd(
     level: str = typer.Argument(..., help="Level name (levels/NAME.json) or path to a level file."),
     count: int = typer.Option(200, "--count", min=1, help="Number of tasks."),
-    seed: int = typer.Option(0, "--seed", help="Sampling seed."),
+    seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Sampling seed."),
     out: str = typer.Option(None, "--out", help=f"Output directory {default('tasks/')}."),
 ):
     """Sample start/target pairs (1.2 L clearance, > 3 L apart, reachable) with exact optimal lengths."""

@@ -34,7 +34,7 @@ def score(
     level: str = typer.Option(None, "--level", help="Only these levels (comma-separated)."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     boot: int = typer.Option(2000, "--boot", min=1, max=MAX_BOOT, help="Bootstrap resamples for the 95% intervals."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
+    seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Seed of the bootstrap."),
     preset: str = typer.Option(None, "--preset", help="Scoring preset: paper (within 2 L, no stop), "
                                "nrns (stopped within 1 m, 500 steps) or habitat (stopped within 0.2 m "
                                "geodesic, 500 steps). Default: paper; nrns when every selected episode "

@@ -99,6 +99,11 @@ def register(app: typer.Typer) -> None:
         kidnap_every = kidnap_every or 0
         if noise not in NOISE_NAMES:
             raise ConfigError(f"--noise: expected one of {', '.join(NOISE_NAMES)}, got {noise!r}")
+        from navbench.geometry import camera_by_name
+        from navbench.pipeline.stages.track_eval import check_map_spec
+
+        camera_by_name(camera)  # before the level is recorded or a run row inserted
+        check_map_spec(map_)
         if odometry is None:
             odometry = "body" if kidnap_every else "world"
         if trajectories is None:

@@ -55,6 +55,11 @@ def register(app: typer.Typer) -> None:
 
         if out is not None:  # checked before the sequence is read and tracked
             _check_out(out, directory, odometry)
+        if not odometry.startswith("gt+"):  # an odometry file: regular, before the database opens
+            from navbench.errors import ConfigError
+            from navbench.safeio import check_regular_file
+
+            check_regular_file(odometry, ConfigError, "odometry file")
         reading = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                       max_height_dev)
         cfg = TrackSequenceConfig(estimator=estimator, odometry=odometry, seed=seed,
@@ -106,17 +111,13 @@ def _check_out(out: Path, directory: Path, odometry: str) -> None:
 
 def _parse_options(items: list[str]) -> dict:
     """``["optimizer=adam", "gn_pixels=2000"]`` -> a dict; values read as JSON when possible."""
-    import json
-
     from navbench.errors import ConfigError
+    from navbench.safeio import parse_option_value
 
     out = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"--option expects KEY=VALUE, got {item!r}")
-        try:
-            out[key.strip()] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key.strip()] = value
+        out[key.strip()] = parse_option_value(value, f"--option {key.strip()}")
     return out

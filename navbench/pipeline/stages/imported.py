@@ -76,6 +76,23 @@ def is_tum_dir(path: Path) -> bool:
     return path.is_dir() and not (path / "views.json").is_file()
 
 
+def check_views_spec(spec: str, what: str = "--views") -> None:
+    """Refuse at once (before the results database is opened) a views ``spec`` that can be
+    neither a views file or directory nor a cache key: a FIFO, a device, a missing path that
+    is no hex key (issue 34)."""
+    from navbench.safeio import check_regular_file
+
+    p = Path(spec)
+    if p.exists() or p.is_symlink():
+        if not p.is_dir():
+            check_regular_file(p, ConfigError, "views file")
+        return
+    if spec != "auto" and not _HEX.fullmatch(spec):
+        raise ConfigError(f"{what} {spec}: no such file or directory, and not a views key (>= 6 "
+                          f"hex digits of an import-views or collect-views artifact, see "
+                          f"`navbench cache ls`)")
+
+
 def resolve_views(spec: str, ctx: StageContext | None = None, options: ImportOptions = ImportOptions(),
                   what: str = "--views"):
     """The views ``spec`` names and their content key: ``(Views, key)``.
@@ -175,9 +192,13 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
     def compute(d: Path) -> None:
         from navbench.worldmodel.fitviews import fit_views
 
+        from navbench.interrupts import checked, deferred
+
         update = ctx.progress(f"fit {name}", fit_cfg.steps)
-        vmap, metrics = fit_views(views, fit_cfg, heldout, cfg.heldout_every,
-                                  load_level_ref(level) if level is not None else None, update)
+        with deferred():  # Ctrl-C at the next progress call, never inside torch (an abort)
+            vmap, metrics = fit_views(views, fit_cfg, heldout, cfg.heldout_every,
+                                      load_level_ref(level) if level is not None else None,
+                                      checked(update))
         metrics.setdefault("fit_seconds", metrics.get("fit_time_s"))
         metrics.update(views_key=views_key, heldout_key=heldout_key)
         vmap.save(d / MAP_FILE)

@@ -37,6 +37,10 @@ def make_level_stage(ctx: StageContext, cfg: LevelConfig) -> Ref:
 
     check_name("level name", cfg.name, LevelError)
     committed = Path(ctx.levels_dir) / f"{cfg.name}.json"
+    if committed.exists() or committed.is_symlink():
+        from navbench.safeio import check_regular_file
+
+        check_regular_file(committed, LevelError, "level file")  # a FIFO is refused, not skipped
     if committed.is_file():
         key = _sha256_text(committed)
         ctx.log(f"make-level: {cfg.name} from {committed} ({key[:12]})")

@@ -52,12 +52,16 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
 
     def compute(d: Path) -> None:
         from navbench.worldmodel.fit import evaluate_map, fit_map
+        from navbench.interrupts import checked, deferred
+        from navbench.worldmodel.grid import check_fitted_finite
         from navbench.worldmodel.views import load_views
 
         train = load_views(views.path)
         update = ctx.progress(f"fit {level.name}", fit_cfg.steps)
-        vmap, metrics = fit_map(train, fit_cfg, progress=update)
+        with deferred():  # Ctrl-C at the next progress call, never inside torch (an abort)
+            vmap, metrics = fit_map(train, fit_cfg, progress=checked(update))
         del train
+        check_fitted_finite(vmap, metrics, fit_cfg)  # a diverged fit is never cached
         held = load_views(eval_views.path)
         quality = evaluate_map(vmap, load_level_ref(level), held)
         out = {**dict(metrics), **dict(quality)}
@@ -119,7 +123,11 @@ def map_file_stage(ctx: StageContext, level: Ref, spec: str, what: str = "--map"
     from navbench.worldmodel.base import load_world_model
 
     path = Path(spec.replace(LEVEL_PLACEHOLDER, level.name))
-    if not path.is_file():
+    if path.exists() or path.is_symlink():
+        from navbench.safeio import check_regular_file
+
+        check_regular_file(path, ConfigError, "map file")  # a directory, FIFO or device: one line
+    else:
         raise ConfigError(f"{what}: no such map file {str(path)!r} (or use fit or true)")
     model = load_world_model(path)
     lv = load_level_ref(level)

@@ -93,6 +93,11 @@ def sample_tasks_stage(ctx: StageContext, level: Ref, cfg: TasksConfig) -> Ref:
             elif larger is not None:
                 ctx.log(f"sample-tasks: {level.name}: the first {cfg.count} tasks of {larger}")
                 tasks = load_tasks(larger)[:cfg.count]
+                from navbench.plan.tasks import check_tasks_on_level
+
+                # checked here, so that an error names the file the user edited, not the
+                # cache's copy of its first tasks (issue 34)
+                check_tasks_on_level(load_level_ref(level), tasks, str(larger))
             else:
                 tasks = sample_tasks(load_level_ref(level), cfg.count, cfg.seed)
             save_tasks(d / TASKS_FILE, level.name, tasks, level_hash=level.key, seed=cfg.seed)

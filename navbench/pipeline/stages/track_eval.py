@@ -51,16 +51,33 @@ def study_level(ctx: StageContext, level: str, profile: Any = None) -> Ref:
     level generated and cached, or one of ``profile``'s levels generated from its seed,
     :meth:`LevelConfig.for_profile`) or a path to a level file named after its level. Any
     other name is an error, never a silently generated level."""
-    p = Path(level)
-    if p.suffix == ".json" or p.is_file():
-        if not p.is_file():
-            from navbench.errors import LevelError
+    from navbench.safeio import names_a_file
 
-            raise LevelError(f"{p}: no such level file")
+    p = Path(level)
+    if names_a_file(level):
+        from navbench.errors import LevelError
+        from navbench.safeio import check_regular_file
+
+        check_regular_file(p, LevelError, "level file")  # missing, a directory, a FIFO: one line
         ctx = dataclasses.replace(ctx, levels_dir=p.parent)  # same store, db and used list
         return make_level_stage(ctx, LevelConfig(p.stem))
     return make_level_stage(ctx, LevelConfig.for_profile(level, profile) if profile is not None
                             else LevelConfig(level))
+
+
+def check_map_spec(spec: str, choices: tuple[str, ...] = MAP_CHOICES) -> None:
+    """Refuse a ``--map`` that is neither one of ``choices`` nor a readable map file (its
+    header: a navbench ``.npz``), in one line and before anything is built or recorded: a
+    command checks it before it opens the results database (issue 34)."""
+    if spec in choices:
+        return
+    from navbench.safeio import check_regular_file
+    from navbench.worldmodel.base import read_kind
+
+    if not (Path(spec).exists() or Path(spec).is_symlink()):
+        raise ConfigError(f"--map: no such map file {spec!r} (or use {' or '.join(choices)})")
+    check_regular_file(spec, ConfigError, "map file")
+    read_kind(spec)
 
 
 def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
@@ -68,6 +85,7 @@ def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
     """Resolve ``--map`` (:data:`MAP_CHOICES` or a map file path) for ``level``. ``fit`` builds
     (or fetches) ``profile``'s fitted map; nothing is built when ``needed`` is false."""
     if not needed:
+        check_map_spec(spec)  # a map file nobody uses is still checked: never ignored
         return StudyMap(spec, "none")
     if spec == "true":
         def load_true():
@@ -84,7 +102,11 @@ def study_map(ctx: StageContext, spec: str, level: Ref, profile: Any = None,
         ref = fit_map_for_profile(ctx, profile, level)
         return StudyMap(spec, ref.key, lambda: _load_map_file(ref.path))
     path = Path(spec)
-    if not path.is_file():
+    if path.exists() or path.is_symlink():
+        from navbench.safeio import check_regular_file
+
+        check_regular_file(path, ConfigError, "map file")  # a directory, FIFO or device: one line
+    else:
         raise ConfigError(f"--map: no such map file {spec!r} (or use {' or '.join(MAP_CHOICES)})")
     model = _load_map_file(path)  # a bad file fails here, before any trajectory is recorded
     return StudyMap(spec, model.content_hash(), lambda: model)
