@@ -160,7 +160,7 @@ def _release_all() -> None:
 
 
 def _me() -> tuple[int, str | None]:
-    from navbench.pipeline.executor import process_start_token
+    from navbench.proc import process_start_token
 
     pid = os.getpid()
     return pid, process_start_token(pid)
@@ -226,7 +226,7 @@ class Holder:
 
 def holders(root: Path) -> list[Holder]:
     """Every holder file under ``root`` (a malformed one is stale, not a hold)."""
-    from navbench.pipeline.executor import pid_alive
+    from navbench.proc import pid_alive
 
     d = root / HOLDS_DIR
     out = []
