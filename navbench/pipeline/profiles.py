@@ -287,7 +287,7 @@ def profile_path(name_or_path: str, where: str = "--profile", relative_to: Path 
         if relative_to is not None and not path.is_absolute():
             path = relative_to / path
         if path.is_dir():
-            raise ConfigError(f"{where} {name_or_path}: is a folder, not a .toml file")
+            raise ConfigError(f"{where} {name_or_path}: is a directory, not a .toml file")
         if not path.exists() and not path.is_symlink():
             raise ConfigError(f"{where} {name_or_path}: no such file")
         # anything else that exists (a FIFO, a device, a dangling link) is refused by _read_toml
