@@ -37,8 +37,11 @@ def episodes(db: Path) -> list[tuple]:
 
 
 def count(db: Path) -> int:
+    """Episodes stored so far (0 before the table exists). The timeout is long enough to wait out
+    a writer's lock: with a short one, a loaded machine read 0 until the run had finished, and
+    the "interrupt" then landed on a process already exiting (CI, 2026-11-27)."""
     try:
-        with sqlite3.connect(db, timeout=0.2) as con:
+        with sqlite3.connect(db, timeout=10) as con:
             return con.execute("SELECT count(*) FROM episodes").fetchone()[0]
     except sqlite3.Error:
         return 0
@@ -81,12 +84,13 @@ def test_interrupt_then_rerun_gives_the_uninterrupted_result(tmp_path, reference
     deadline = time.monotonic() + 240
     while count(db) < 2 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.005)
+    running = proc.poll() is None
     os.killpg(proc.pid, sig)  # the parent and its workers, as kill -9 or a terminal's Ctrl-C
     proc.wait(timeout=120)
     stored = count(db)
+    assert running and 0 < stored < TOTAL, f"kill landed outside the run ({stored} of {TOTAL} stored)"
     expected_rc = -signal.SIGKILL if sig == signal.SIGKILL else 130
     assert proc.returncode == expected_rc, proc.stderr.read().decode()[-2000:]
-    assert 0 < stored < TOTAL, f"kill landed outside the run ({stored} of {TOTAL} stored)"
 
     res = run_cli(root, ["--workers", "2"])
     assert res.returncode == 0, res.stderr[-2000:]
