@@ -1,0 +1,100 @@
+"""Issue 34, third probe round: what a blind probe still found after the first two rounds.
+
+Each test fails on the code before its fix: an unreadable ref made ``cache gc`` collect an
+entry the latest run uses; a dangling committed task file, a NaN inside an ``-o`` list, a
+60 000-deep ``--set`` value gave tracebacks; an unusable ``NUMBA_CACHE_DIR`` and a ``--cache``
+that is not a folder were accepted.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from navbench.pipeline.cache import ArtifactStore, run_stage
+from tests.bad_input.conftest import assert_clean_error, nb, tree_snapshot
+from tests.pipeline.test_cache import Counter
+
+
+# ----------------------------------------------------------------------------- cache gc, bad refs
+def _ref_damage(p: Path, kind: str) -> None:
+    good = p.read_text()
+    p.unlink()
+    if kind == "truncated":
+        p.write_text(good[: len(good) // 2])
+    elif kind == "traversal":
+        p.write_text(json.dumps({"name": "all-tiny", "updated": 0,
+                                 "artifacts": [["..", "../../notes"], ["s", "../../../notes"]]}))
+    elif kind == "bad-pairs":
+        p.write_text(json.dumps({"name": "all-tiny", "artifacts": [[1, 2, 3], None, "x"]}))
+    elif kind == "dict":
+        p.write_text(json.dumps({"name": "all-tiny", "artifacts": {}}))
+    elif kind == "list":
+        p.write_text("[]")
+    elif kind == "dangling":
+        p.symlink_to(p.parent / "gone.json")
+    elif kind == "fifo":
+        os.mkfifo(p)
+    elif kind == "directory":
+        p.mkdir()
+    elif kind == "latin1":
+        p.write_bytes(good.replace('"name"', '"n\xe4me"').encode("latin-1"))
+    else:
+        raise ValueError(kind)
+
+
+@pytest.mark.parametrize("dry", [False, True])
+@pytest.mark.parametrize("kind", ["truncated", "traversal", "bad-pairs", "dict", "list", "dangling",
+                                  "fifo", "directory", "latin1"])
+def test_gc_refuses_when_a_ref_cannot_be_read_and_removes_nothing(tmp_path, monkeypatch, kind, dry):
+    root = tmp_path / "cache"
+    store = ArtifactStore(root)
+    keys = [run_stage(store, "s", {"v": v}, {}, 1, Counter())[1] for v in range(3)]
+    ref = store.set_ref("all-tiny", [("s", keys[0])])  # the latest run uses the oldest entry
+    _ref_damage(ref, kind)
+    monkeypatch.chdir(tmp_path)
+    before = tree_snapshot(root)
+    res = nb("cache", "gc", "--keep-newest", "0", "--root", "cache", *(["--dry-run"] if dry else []))
+    assert res.code == 2, res.output
+    assert_clean_error(res, "all-tiny.json")
+    assert "would remove" not in res.out and "removed" not in res.out
+    assert tree_snapshot(root) == before
+    assert all((root / "s" / k / "manifest.json").is_file() for k in keys)
+
+
+def test_gc_reads_a_utf16_ref_or_refuses_it_never_ignores_it(tmp_path, monkeypatch):
+    root = tmp_path / "cache"
+    store = ArtifactStore(root)
+    keys = [run_stage(store, "s", {"v": v}, {}, 1, Counter())[1] for v in range(2)]
+    ref = store.set_ref("all-tiny", [("s", keys[0])])
+    ref.write_bytes(ref.read_text().encode("utf-16"))
+    monkeypatch.chdir(tmp_path)
+    res = nb("cache", "gc", "--keep-newest", "0", "--root", "cache")
+    assert "Traceback" not in res.output
+    assert (root / "s" / keys[0] / "manifest.json").is_file()  # what the ref names is kept
+    if res.code != 0:
+        assert_clean_error(res, "all-tiny.json")
+
+
+def test_gc_refuses_a_refs_folder_that_is_a_file(tmp_path, monkeypatch):
+    root = tmp_path / "cache"
+    store = ArtifactStore(root)
+    keys = [run_stage(store, "s", {"v": v}, {}, 1, Counter())[1] for v in range(2)]
+    (root / "refs").write_text("not a folder")
+    monkeypatch.chdir(tmp_path)
+    res = nb("cache", "gc", "--keep-newest", "0", "--root", "cache")
+    assert_clean_error(res, "refs")
+    assert all((root / "s" / k).is_dir() for k in keys)
+
+
+def test_gc_still_keeps_a_ref_of_entries_that_are_gone(tmp_path, monkeypatch):
+    """A well-formed ref naming a key no longer stored is no reason to refuse."""
+    root = tmp_path / "cache"
+    store = ArtifactStore(root)
+    keys = [run_stage(store, "s", {"v": v}, {}, 1, Counter())[1] for v in range(2)]
+    store.set_ref("all-tiny", [("s", keys[0]), ("fit-map", "0" * 64)])
+    rep = store.gc(keep_newest=0)
+    assert [p.name for p in rep.removed] == [keys[1]] and (root / "s" / keys[0]).is_dir()
