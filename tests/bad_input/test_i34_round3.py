@@ -98,3 +98,13 @@ def test_gc_still_keeps_a_ref_of_entries_that_are_gone(tmp_path, monkeypatch):
     store.set_ref("all-tiny", [("s", keys[0]), ("fit-map", "0" * 64)])
     rep = store.gc(keep_newest=0)
     assert [p.name for p in rep.removed] == [keys[1]] and (root / "s" / keys[0]).is_dir()
+
+
+# ----------------------------------------------------------------------------- task files
+@pytest.mark.parametrize("args", [["tiny", "--count", "2"], []])
+def test_level_difficulty_refuses_a_dangling_task_file_in_one_line(project, args):
+    (project / "tasks").mkdir()
+    (project / "tasks" / "tiny-200-730d65ed.json").symlink_to(project / "no" / "such" / "target")
+    res = nb("level-difficulty", *args)
+    assert res.code == 2, res.output
+    assert_clean_error(res, "tiny-200-730d65ed.json")
