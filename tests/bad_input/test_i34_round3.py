@@ -108,3 +108,29 @@ def test_level_difficulty_refuses_a_dangling_task_file_in_one_line(project, args
     res = nb("level-difficulty", *args)
     assert res.code == 2, res.output
     assert_clean_error(res, "tiny-200-730d65ed.json")
+
+
+# ----------------------------------------------------------------------------- -o values
+@pytest.mark.parametrize("value", ["[nan,1,1]", "[1,inf]", "abc", "[true,1]", "[[1],2]"])
+def test_track_sequence_checks_estimator_options_before_reading_anything(project, value):
+    from tests.bad_input.test_views import make_tum
+
+    tum = make_tum(project.parent / "tum")
+    res = nb("track-sequence", tum, "--no-store", "--out", "est.txt", "--estimator", "ours",
+             "--map", "nothere.npz", "-o", f"prior_sigma={value}")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "prior_sigma")
+    assert not (project / "est.txt").exists()
+
+
+@pytest.mark.parametrize("value", ["[nan,1,1]", [float("nan"), 1.0], [True, 1], "12", [[1], 2]])
+def test_estimator_option_conversion_refuses_what_is_no_list_of_finite_numbers(value):
+    """The conversion every estimator runs on its options (a library user, a plugin): one
+    TrackingError naming the option, never a ValueError from float('[')."""
+    from navbench.errors import TrackingError
+    from navbench.track.base import config_from_options
+    from navbench.track.trackconfig import TrackerConfig
+
+    with pytest.raises(TrackingError, match="prior_sigma"):
+        config_from_options(TrackerConfig(), {"prior_sigma": value}, "tracker")
+    assert config_from_options(TrackerConfig(), {"prior_sigma": [1, 2.5]}, "t").prior_sigma == (1.0, 2.5)
