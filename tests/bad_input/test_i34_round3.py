@@ -134,3 +134,24 @@ def test_estimator_option_conversion_refuses_what_is_no_list_of_finite_numbers(v
     with pytest.raises(TrackingError, match="prior_sigma"):
         config_from_options(TrackerConfig(), {"prior_sigma": value}, "tracker")
     assert config_from_options(TrackerConfig(), {"prior_sigma": [1, 2.5]}, "t").prior_sigma == (1.0, 2.5)
+
+
+# ----------------------------------------------------------------------------- --set values
+_DEEP = "[" * 45_000 + "1" + "]" * 45_000  # under the length limit, far over the depth limit
+
+
+@pytest.mark.parametrize("item, says", [
+    (f"fit.lr={_DEEP}", "nested more than 64 levels deep"),
+    (f"levels={_DEEP}", "nested more than 64 levels deep"),
+    (f"navigation.options.ours.prior_sigma={_DEEP}", "nested more than 64 levels deep"),
+    ("fit.lr=" + "[" * 70 + "]" * 70, "nested more than 64 levels deep"),
+    ("tasks.count=" + "9" * 5000, "digits"),
+    ("fit.lr=[" + "1," * 60_000 + "1]", "at most 100000"),
+])
+def test_set_values_are_held_to_the_limits_of_option_values(project, item, says):
+    before = tree_snapshot(project)
+    res = nb("all", "--profile", "tiny.toml", "--set", item)
+    assert res.code == 2, res.output[-2000:]
+    assert_clean_error(res, "--set " + item.split("=")[0], says)
+    assert len(res.err) < 1000
+    assert tree_snapshot(project) == before
