@@ -155,3 +155,24 @@ def test_set_values_are_held_to_the_limits_of_option_values(project, item, says)
     assert_clean_error(res, "--set " + item.split("=")[0], says)
     assert len(res.err) < 1000
     assert tree_snapshot(project) == before
+
+
+# ----------------------------------------------------------------------------- environment
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("value", ["/proc/nope", "/proc/nope/deeper", "/proc/self"])
+def test_a_numba_cache_dir_that_cannot_be_made_or_written_is_refused(project, monkeypatch, value):
+    """Permission bits say yes to root on /proc; only trying to make the folder and a file in
+    it tells (numba then wrote its cache beside the package and the command exited 0)."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", value)
+    res = nb("sample-tasks", "tiny", "--count", "2")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "NUMBA_CACHE_DIR", value)
+    assert not Path("tasks").exists()
+
+
+def test_a_numba_cache_dir_that_can_be_made_is_made_and_used(project, monkeypatch, tmp_path):
+    folder = tmp_path / "new" / "numba"
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(folder))
+    res = nb("sample-tasks", "tiny", "--count", "2")
+    assert res.code == 0, res.output
+    assert folder.is_dir() and not [p for p in folder.iterdir() if p.name.startswith(".navbench-probe")]
