@@ -176,3 +176,28 @@ def test_a_numba_cache_dir_that_can_be_made_is_made_and_used(project, monkeypatc
     res = nb("sample-tasks", "tiny", "--count", "2")
     assert res.code == 0, res.output
     assert folder.is_dir() and not [p for p in folder.iterdir() if p.name.startswith(".navbench-probe")]
+
+
+# ----------------------------------------------------------------------------- report --cache
+@pytest.mark.parametrize("case", ["dev-zero", "default-is-a-file", "file", "dangling"])
+def test_report_refuses_a_cache_that_is_not_a_folder(project, case):
+    from navbench.results.db import ResultsDB
+
+    Path("results").mkdir()
+    with ResultsDB("sqlite:///results/navbench.db"):
+        pass
+    args, named = [], "results/cache"
+    if case == "dev-zero":
+        args, named = ["--cache", "/dev/zero"], "/dev/zero"
+    elif case == "default-is-a-file":
+        Path("results/cache").write_text("my notes, not a cache\n")
+    elif case == "file":
+        Path("notes.txt").write_text("mine\n")
+        args, named = ["--cache", "notes.txt"], "notes.txt"
+    else:
+        Path("results/cache").symlink_to(project / "gone")
+    before = tree_snapshot(project)
+    res = nb("report", "--boot", "10", *args)
+    assert res.code == 2, res.output
+    assert_clean_error(res, "--cache", named, "not a folder")
+    assert tree_snapshot(project) == before and not Path("results/report").exists()
