@@ -503,6 +503,8 @@ def read_ref(p: Path) -> list[tuple[str, str]]:
 
     how = ("; rerun the command that wrote it (e.g. navbench all) or move it aside, "
            "then run cache gc again")
+    if p.is_symlink() and not p.exists():
+        raise ArtifactError(f"{p}: a link to a missing file ({os.readlink(p)}){how}")
     try:
         doc = load_json(p, ArtifactError, "ref file")
     except ArtifactError as e:
