@@ -210,10 +210,27 @@ def _env_problem(env: dict) -> str | None:
 
         c = Path(cache)
         probe = c if c.exists() else next((q for q in c.parents if q.exists()), None)
-        if not cache.strip() or probe is None or not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        if (not cache.strip() or probe is None or not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK)
+                or not _writable_folder(c)):
             return (f"NUMBA_CACHE_DIR={cache!r}: not a writable folder (numba would write its "
                     f"cache beside the package); point it at a writable folder or unset it")
     return None
+
+
+def _writable_folder(c: Path) -> bool:
+    """Whether folder ``c`` exists or can be made, and a file can be written in it: tried, not
+    judged by permission bits, which say yes to root on /proc or a read-only file system."""
+    import os
+    import tempfile
+
+    try:
+        c.mkdir(parents=True, exist_ok=True)  # numba would make it too
+        fd, name = tempfile.mkstemp(prefix=".navbench-probe-", dir=c)
+        os.close(fd)
+        os.unlink(name)
+    except OSError:
+        return False
+    return True
 
 
 _MPL_BACKENDS = {"agg", "pdf", "ps", "svg", "pgf", "cairo", "template", "tkagg", "tkcairo",

@@ -274,15 +274,20 @@ class ArtifactStore:
             {"name": name, "updated": time.time(), "artifacts": sorted({(s, k) for s, k in keys})}, indent=1))
 
     def refs(self) -> dict[str, list[tuple[str, str]]]:
-        """All ref files: name -> list of ``(stage, key)``."""
+        """All ref files: name -> list of ``(stage, key)``. A ref that cannot be read (not a
+        regular file, a dangling link, a FIFO, not JSON, not ``{"artifacts": [[stage, key],
+        ...]}`` with stage names and 64-hex keys) raises one-line
+        :class:`~navbench.errors.ArtifactError` naming it: gc cannot tell what it protects, so
+        it must not run as if it were absent (issue 34)."""
         out = {}
         d = self.root / REFS_DIR
-        if d.is_dir():
-            for p in sorted(d.glob("*.json")):
-                try:
-                    out[p.stem] = [tuple(x) for x in load_json(p, ArtifactError)["artifacts"]]
-                except (ArtifactError, KeyError, TypeError, ValueError):  # safeio: deep, FIFO
-                    continue
+        if not d.is_dir():
+            if d.exists() or d.is_symlink():
+                raise ArtifactError(f"{d}: the refs folder is not a directory; cannot tell which "
+                                    "entries the latest runs use (move it aside, then rerun the runs)")
+            return out
+        for p in sorted(d.glob("*.json")):
+            out[p.stem] = read_ref(p)
         return out
 
     # ------------------------------------------------------------------ listing and gc
@@ -489,6 +494,27 @@ def _writer_alive(name: str) -> bool:
     except PermissionError:
         return True
     return True
+
+
+def read_ref(p: Path) -> list[tuple[str, str]]:
+    """The ``(stage, key)`` pairs of the ref file ``p`` (through :mod:`navbench.safeio`: a
+    regular file only, never blocking), or one-line :class:`ArtifactError` naming it."""
+    from navbench.pipeline.ownership import is_entry_name
+
+    how = ("; rerun the command that wrote it (e.g. navbench all) or move it aside, "
+           "then run cache gc again")
+    if p.is_symlink() and not p.exists():
+        raise ArtifactError(f"{p}: a link to a missing file ({os.readlink(p)}){how}")
+    try:
+        doc = load_json(p, ArtifactError, "ref file")
+    except ArtifactError as e:
+        raise ArtifactError(f"{e}{how}") from None
+    arts = doc.get("artifacts") if isinstance(doc, dict) else None
+    if not isinstance(arts, list) or not all(
+            isinstance(x, list) and len(x) == 2 and is_entry_name(*x) for x in arts):
+        raise ArtifactError(f"{p}: not a ref file navbench wrote (it needs \"artifacts\": "
+                            f"[[stage, 64-hex key], ...]){how}")
+    return [(s, k) for s, k in arts]
 
 
 def _refuse_object_arrays(d: Path, stage: str) -> None:

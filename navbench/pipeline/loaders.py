@@ -14,12 +14,23 @@ import numpy as np
 from navbench.report.build import MapLoader, TrajectoryLoader
 
 
-def store_loaders(cache_root: str | Path | None = None) -> tuple[TrajectoryLoader, MapLoader]:
+def store_loaders(cache_root: str | Path | None = None, option: str = "--cache") -> tuple[TrajectoryLoader, MapLoader]:
     """``(load_trajectory, load_map)`` reading verified artifacts of the stage cache: episode
-    records (``episode`` stage) and fitted maps (``fit-map`` stage)."""
+    records (``episode`` stage) and fitted maps (``fit-map`` stage). A cache path that exists
+    and is not a folder (a file, ``/dev/zero``, a dangling link) is one-line
+    :class:`~navbench.errors.ConfigError` naming ``option``: read as "no cache", it gave a report
+    without a word of why its figures were missing (issue 34)."""
+    import os
+
+    from navbench.errors import ConfigError
     from navbench.pipeline.cache import ArtifactStore
 
     store = ArtifactStore(cache_root)
+    if os.path.lexists(store.root) and not store.root.is_dir():
+        what = ("a file" if store.root.is_file() else "a dangling link" if not store.root.exists()
+                else "a device, FIFO or socket")
+        raise ConfigError(f"{option} {store.root}: is {what}, not a folder; the stage cache is a "
+                          "folder (results/cache by default); move the file aside or give --cache DIR")
 
     def load_trajectory(key: str) -> dict:
         from navbench.pipeline.artifacts import TRAJ_FILE, load_record

@@ -46,24 +46,37 @@ def known_keys() -> list[str]:
             "conditions.<name>"]
 
 
-def _toml_value(text: str) -> Any:
-    """``text`` read as a TOML value (number, boolean, array, quoted string), else the text."""
+def _toml_value(text: str, label: str = "--set") -> Any:
+    """``text`` read as a TOML value (number, boolean, array, quoted string), else the text.
+    Refused in one line naming ``label`` (the limits of ``-o`` values, :mod:`navbench.safeio`):
+    a value over ``MAX_OPTION_CHARS`` characters, nested deeper than ``MAX_DEPTH`` (the parser
+    would exhaust the stack), an integer too long to read."""
+    from navbench.safeio import MAX_DEPTH, MAX_OPTION_CHARS, check_depth
+
+    if len(text) > MAX_OPTION_CHARS:
+        raise ConfigError(f"{label}: a value of {len(text)} characters; at most {MAX_OPTION_CHARS}")
     try:
-        return tomllib.loads(f"v = {text}")["v"]
+        v = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise ConfigError(f"{label}: nested more than {MAX_DEPTH} levels deep") from None
+    except ValueError as e:  # an integer longer than Python's digit limit
+        raise ConfigError(f"{label}: {str(e).splitlines()[0]}") from None
+    check_depth(v, label, ConfigError)
+    return v
 
 
-def _typed(fname: str, text: str) -> Any:
+def _typed(fname: str, text: str, label: str = "--set") -> Any:
     """A --set value for the Profile field ``fname``, read by the field's type."""
     if fname in _LIST_FIELDS:
         if text.strip().startswith("["):
-            return _toml_value(text)
+            return _toml_value(text, label)
         return [t.strip() for t in text.split(",") if t.strip()]
     if fname in ("name", "description", "camera", "map_source", "goal", "scoring_preset", "online_ablation"):
-        v = _toml_value(text)
+        v = _toml_value(text, label)
         return v if isinstance(v, str) else text
-    return _toml_value(text)
+    return _toml_value(text, label)
 
 
 def parse_set(item: str, where: str = "--set") -> tuple[str, str]:
@@ -102,7 +115,7 @@ def apply_sets(profile, items: Iterable[str], where: str = "--set"):
         key, text = parse_set(item, where)
         label = f"{where} {key}"
         if key in plain:
-            fname, value = plain[key], _typed(plain[key], text)
+            fname, value = plain[key], _typed(plain[key], text, label)
         else:
             section = next((s for s in _TABLE_KEYS if key.startswith(s + ".")), None)
             if key.startswith("conditions.") and key.count(".") == 1:
@@ -116,11 +129,12 @@ def apply_sets(profile, items: Iterable[str], where: str = "--set"):
             path = key[len(section) + 1:].split(".")
             if fname == "estimator_options" and len(path) != 2:
                 raise ConfigError(f"{label}: expected navigation.options.<estimator>.<option>=VALUE")
-            value = _nested(changes.get(fname, getattr(profile, fname)), path, _toml_value(text))
+            value = _nested(changes.get(fname, getattr(profile, fname)), path, _toml_value(text, label))
         try:
             FIELDS[fname][1](value)
         except _Invalid as e:
-            raise ConfigError(f"{label}={text}: {e}") from None
+            shown = text if len(text) <= 200 else f"{text[:60]}...({len(text)} characters)"
+            raise ConfigError(f"{label}={shown}: {e}") from None
         changes[fname] = value
     if conditions:
         from navbench.sim.conditions import conditions_to_episode

@@ -74,6 +74,12 @@ def ensure_root(root: Path) -> None:
         write_marker(root)
 
 
+def is_entry_name(stage, key) -> bool:
+    """Whether ``stage``/``key`` can name a cache entry (a stage name and 64 hex digits)."""
+    return (isinstance(stage, str) and isinstance(key, str) and _STAGE.fullmatch(stage) is not None
+            and _KEY.fullmatch(key) is not None)
+
+
 def navbench_manifest(entry: Path) -> dict | None:
     """The manifest of cache entry ``entry`` (``<root>/<stage>/<key>``) when navbench wrote it,
     else ``None`` (absent, unreadable, a link, or not describing this very entry)."""

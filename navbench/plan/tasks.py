@@ -332,10 +332,22 @@ def load_tasks(path) -> list[Task]:
     return list(read_task_file(path).tasks)
 
 
+def _mtime(p: Path) -> float:
+    """When ``p`` was changed: its target's time, else (a dangling link) the link's own, so that
+    a broken task file is still found and then refused in one line by :func:`read_task_file`."""
+    try:
+        return p.stat().st_mtime
+    except OSError:
+        try:
+            return p.lstat().st_mtime
+        except OSError:
+            return 0.0
+
+
 def find_task_file(level_name: str, count: int | None = None, root=".") -> Path:
     """The committed task file ``tasks/<level>-<count>-*.json`` (the newest if several)."""
     pat = f"{level_name}-{count}-*.json" if count is not None else f"{level_name}-*.json"
-    hits = sorted((Path(root) / "tasks").glob(pat), key=lambda p: p.stat().st_mtime)
+    hits = sorted((Path(root) / "tasks").glob(pat), key=_mtime)
     if not hits:
         raise TaskError(f"no task file tasks/{pat}; run `navbench sample-tasks {level_name}`")
     return hits[-1]

@@ -10,6 +10,8 @@ After each ``update``, ``last_timing`` holds that step's component times in mill
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -73,6 +75,14 @@ def config_from_options(base: Any, options: dict[str, Any], what: str) -> Any:
     unknown = sorted(set(options) - names)
     if unknown:
         raise TrackingError(f"unknown {what} option(s) {unknown}; known: {sorted(names)}")
-    conv = {k: (tuple(float(x) for x in v) if isinstance(getattr(base, k), tuple) else v)
-            for k, v in options.items()}
+    conv = {}
+    for k, v in options.items():
+        if isinstance(getattr(base, k), tuple):
+            # a string is iterable too: '[nan,1,1]' (not JSON, so kept as text) is no list
+            ok = isinstance(v, (list, tuple, np.ndarray)) and all(
+                isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in v)
+            if not ok:
+                raise TrackingError(f"{what} option {k}: expected a list of finite numbers, got {repr(v)[:80]}")
+            v = tuple(float(x) for x in v)
+        conv[k] = v
     return replace(base, **conv)

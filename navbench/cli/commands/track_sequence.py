@@ -62,8 +62,15 @@ def register(app: typer.Typer) -> None:
             check_regular_file(odometry, ConfigError, "odometry file")
         reading = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                       max_height_dev)
+        options = _parse_options(option)
+        if options:  # the checks of track-eval -o (types, ranges), before the sequence is read
+            from navbench.pipeline.checks import check_estimator_options
+            from navbench.track.registry import check_estimator_names
+
+            check_estimator_names([estimator], "--estimator")
+            check_estimator_options({estimator: options}, "--option")
         cfg = TrackSequenceConfig(estimator=estimator, odometry=odometry, seed=seed,
-                                  options=_parse_options(option), max_tilt_deg=max_tilt,
+                                  options=options, max_tilt_deg=max_tilt,
                                   max_dt=max_dt)
         with (nullcontext() if no_store else open_db(db)) as rdb:
             res = track_sequence(directory, map_, cfg, out=out if out is not None else "default",
