@@ -63,7 +63,43 @@ def check_report_dir(dest: str | Path, option: str, protected: list[Path]) -> Pa
     if dest.is_dir() and any(dest.iterdir()) and not (dest / REPORT_MARKER).is_file():
         raise ConfigError(f"{where}: the folder is not empty and is not a report navbench "
                           f"published (no {REPORT_MARKER} file); choose a new or empty folder")
+    if dest.is_dir() and (dest / REPORT_MARKER).is_file():
+        foreign = foreign_files(dest)
+        if foreign:  # a republish replaces the folder whole: it would take these with it
+            shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+            raise ConfigError(f"{where}: holds {len(foreign)} file(s) navbench did not write there "
+                              f"({shown}); move them out of the report folder, or choose another folder")
     return dest
+
+
+def _written(folder: Path) -> set[str] | None:
+    """The files the marker says navbench published in ``folder`` (``None``: a marker written
+    before it listed them)."""
+    import json
+
+    try:
+        doc = json.loads((folder / REPORT_MARKER).read_text(encoding="utf-8"))
+        files = doc["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return {f for f in files if isinstance(f, str)} if isinstance(files, list) else None
+
+
+def foreign_files(folder: Path) -> list[str]:
+    """Files in a published report ``folder`` that navbench did not write there: not among those
+    its marker lists (or, for an older marker without the list, not ``index.html`` or a ``.csv``
+    table at the top), links and folders included. A republish must not remove them."""
+    written = _written(folder)
+    out = []
+    for p in sorted(folder.rglob("*")):
+        rel = p.relative_to(folder).as_posix()
+        if rel == REPORT_MARKER or (p.is_dir() and not p.is_symlink()):
+            continue
+        ours = (rel in written) if written is not None else (
+            "/" not in rel and (rel == "index.html" or rel.endswith(".csv")))
+        if not ours or p.is_symlink():
+            out.append(rel)
+    return out
 
 
 def publish(src_dir: Path, dest: Path, protected: list[Path] | None = None,
@@ -103,5 +139,12 @@ def publish(src_dir: Path, dest: Path, protected: list[Path] | None = None,
 
 
 def mark_report_dir(folder: Path) -> None:
-    """Mark ``folder`` as a report navbench wrote (so a later report may replace it)."""
-    (Path(folder) / REPORT_MARKER).write_text("written by navbench; the next report replaces this folder\n")
+    """Mark ``folder`` as a report navbench wrote, listing the files it holds (so a later report
+    may replace it, and only when nothing else was put there: :func:`foreign_files`)."""
+    import json
+
+    folder = Path(folder)
+    files = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*")
+                   if p.is_file() and p.name != REPORT_MARKER)
+    doc = {"written_by": "navbench", "note": "the next report replaces this folder", "files": files}
+    (folder / REPORT_MARKER).write_text(json.dumps(doc, indent=1) + "\n")

@@ -412,3 +412,36 @@ def test_markup_in_a_stored_level_name_is_printed_literally(project, monkeypatch
 def test_markup_in_an_error_message_is_printed_literally(project):
     res = nb("run-navigation", "--profile", "[/x].toml")
     assert_clean_error(res, "[/x]")
+
+
+def test_a_republish_never_takes_a_users_file_with_it(tmp_path):
+    """A published report folder is navbench's, but a file a user put in it is not: the republish
+    (which swaps the folder whole) is refused in one line and the file survives; without it the
+    republish goes through. An older marker (before it listed the files) allows only index.html
+    and the CSV tables at the top."""
+    from navbench.errors import ConfigError
+    from navbench.report.publish import REPORT_MARKER, publish
+
+    src = tmp_path / "artifact"
+    src.mkdir()
+    (src / "index.html").write_text("<html>1</html>")
+    (src / "scores.csv").write_text("a\n")
+    out = publish(src, tmp_path / "out", [])
+    (out / "my-annotations.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="my-annotations.txt") as e:
+        publish(src, out, [])
+    assert "\n" not in str(e.value)
+    assert (out / "my-annotations.txt").read_text() == "mine"
+    (out / "my-annotations.txt").unlink()
+    (src / "index.html").write_text("<html>2</html>")
+    publish(src, out, [])
+    assert (out / "index.html").read_text() == "<html>2</html>"
+    # a marker written before the list: index.html and CSVs are navbench's, anything else is not
+    (out / REPORT_MARKER).write_text("written by navbench; the next report replaces this folder\n")
+    publish(src, out, [])
+    (out / REPORT_MARKER).write_text("written by navbench; the next report replaces this folder\n")
+    (out / "notes").mkdir()
+    (out / "notes" / "n.txt").write_text("n")
+    with pytest.raises(ConfigError, match="notes/n.txt"):
+        publish(src, out, [])
+    assert (out / "notes" / "n.txt").read_text() == "n"
