@@ -269,6 +269,24 @@ def _fail(msg: str, code: int = 2) -> None:
     sys.exit(code)
 
 
+#: A Ctrl-C that Python swallowed (see :func:`_unraisable_hook`), honoured when the command ends.
+_SWALLOWED_INTERRUPT: list[bool] = []
+
+
+def _unraisable_hook(unraisable) -> None:
+    """``sys.unraisablehook`` of the CLI. A Ctrl-C that lands inside a finaliser or a weakref
+    callback (matplotlib makes many) is "unraisable": Python prints "Exception ignored ...
+    KeyboardInterrupt" with a traceback and carries on as if nothing happened (the blind probe's
+    ``report``: a traceback, then exit 0). It cannot be raised again from here (the hook's own
+    exceptions are ignored too), so it is remembered, nothing is printed, and :func:`main` ends
+    the command as interrupted (one line, exit 130) when it returns. Anything else goes to
+    Python's own hook."""
+    if isinstance(unraisable.exc_type, type) and issubclass(unraisable.exc_type, KeyboardInterrupt):
+        _SWALLOWED_INTERRUPT.append(True)
+        return
+    sys.__unraisablehook__(unraisable)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the app, turning NavbenchError into a one-line message and
     usage errors into click's short usage message (exit 2).
@@ -282,6 +300,7 @@ def main(argv: list[str] | None = None) -> None:
     from navbench.errors import NavbenchError
 
     _sanitise_env(os.environ)
+    sys.unraisablehook = _unraisable_hook
     problem = _env_problem(os.environ)
     if problem is not None:
         _fail(problem)
@@ -318,7 +337,7 @@ def main(argv: list[str] | None = None) -> None:
     # with standalone_mode=False, click returns typer.Exit(n)'s code; typer >= 0.29 turns a
     # KeyboardInterrupt into Exit(130) and returns 130 without a word (commands that report
     # Ctrl-C themselves exit through SystemExit and do not come back here)
-    if rv == 130:
+    if rv == 130 or _SWALLOWED_INTERRUPT:  # a Ctrl-C Python swallowed counts as one
         typer.secho("interrupted", err=True, fg=typer.colors.YELLOW)
         sys.exit(130)
     if isinstance(rv, int) and rv:
