@@ -288,8 +288,8 @@ def _check_goal_localizer(overrides: Any) -> None:
     if "k" in overrides:
         raise _Invalid("k: the image-goal stage asks for two hypotheses; it is not a setting")
     _check_table(LocalizerConfig, overrides, LOCALIZER_RANGES)
-    for k, v in overrides.items():
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
+    for k, v in overrides.items():  # a field with a range of its own (row_top: -0.3) says its bounds
+        if k not in LOCALIZER_RANGES and isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
             raise _Invalid(f"{k}: must be >= 0, got {v!r}")
 
 

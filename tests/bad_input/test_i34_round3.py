@@ -249,3 +249,15 @@ def test_a_ctrl_c_swallowed_by_a_finaliser_ends_the_command_as_interrupted(monke
     assert e.value.code == 130
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert err == ["interrupted"]
+
+
+def test_goal_localizer_fields_with_their_own_range_take_negative_values():
+    """`row_top` (the signature's top elevation, default -0.3) has the range [-10, 10]: its own
+    default was refused by a blanket ">= 0" rule; fields without a range of their own keep it."""
+    from navbench.pipeline.checks import _check_goal_localizer, _Invalid
+
+    _check_goal_localizer({"row_top": -0.3, "row_step": -0.1})
+    with pytest.raises(_Invalid, match="row_top"):
+        _check_goal_localizer({"row_top": -20.0})
+    with pytest.raises(_Invalid, match="nms_radius: .*>= 0"):
+        _check_goal_localizer({"nms_radius": -1.0})
