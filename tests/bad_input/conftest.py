@@ -15,8 +15,10 @@ subprocess where processes matter) inside a scratch project and checks the contr
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -167,3 +169,19 @@ def removed_or_changed(before: dict, after: dict) -> list[str]:
     """Files of ``before`` that are gone or different in ``after`` (the invariant "nothing
     removed that was there")."""
     return [p for p, v in before.items() if after.get(p) != v]
+
+
+@contextmanager
+def deadline(seconds: int):
+    """Fail (a ``TimeoutError`` naming a hang) instead of hanging the suite when the body blocks,
+    e.g. on a FIFO. Main thread only (``SIGALRM``)."""
+    def boom(*_):
+        raise TimeoutError(f"no answer within {seconds} s (a hang)")
+
+    old = signal.signal(signal.SIGALRM, boom)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)

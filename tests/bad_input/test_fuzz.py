@@ -21,14 +21,12 @@ from __future__ import annotations
 
 import os
 import shutil
-import signal
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
 from tests.bad_input import fuzz
-from tests.bad_input.conftest import (TINY_PROFILE, db_row_counts, nb, removed_or_changed,
+from tests.bad_input.conftest import (TINY_PROFILE, db_row_counts, deadline, nb, removed_or_changed,
                                       tree_snapshot)
 
 N_CASES = int(os.environ.get("NAVBENCH_FUZZ_CASES", len(fuzz.GENERATORS)))
@@ -74,18 +72,6 @@ def base_project(tmp_path_factory):
     return root, {"views_artifact": (arts[0].stage, arts[0].key)}
 
 
-@contextmanager
-def deadline(seconds: int):
-    def boom(*_):
-        raise TimeoutError(f"no answer within {seconds} s (a hang)")
-
-    old = signal.signal(signal.SIGALRM, boom)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def _snapshot(root: Path) -> dict:

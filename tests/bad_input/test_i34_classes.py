@@ -18,31 +18,17 @@ import os
 import signal
 import subprocess
 import sys
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from .conftest import (TINY_PROFILE, assert_clean_error, assert_usage_error, db_row_counts, nb,
-                       nb_subprocess, tree_snapshot)
+from .conftest import (TINY_PROFILE, assert_clean_error, assert_usage_error, db_row_counts, deadline,
+                       nb, nb_subprocess, tree_snapshot)
 
 DEEP = 100_000  # far past Python's recursion limit
 
 
-@contextmanager
-def deadline(seconds: int):
-    """Fail (instead of hanging the suite) when the body blocks, e.g. on a FIFO."""
-    def boom(*_):
-        raise TimeoutError(f"blocked for {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, boom)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
 
 
 # ----------------------------------------------------------------------------- 1. deep nesting
