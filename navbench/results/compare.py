@@ -83,9 +83,10 @@ def resolve_pairs(pairs, variants_a: list[str], variants_b: list[str], side_a: s
 
 
 def _side(db, runs, level, where: str, version: str | None = None,
-          warnings: list | None = None) -> "tuple[pandas.DataFrame, str]":
+          warnings: list | None = None) -> "tuple[pandas.DataFrame, str, str | None]":
     """One side's episodes, of one benchmark version (``version``, else the newest of the side;
-    a note naming what was left out goes to ``warnings``), and the side in words."""
+    a note naming what was left out goes to ``warnings``), the side in words, and that version
+    (``None``: the side holds no episode)."""
     from navbench.results.db.resume import resolve_run_ids
     from navbench.results.score import select_versioned
 
@@ -98,7 +99,7 @@ def _side(db, runs, level, where: str, version: str | None = None,
     if note and warnings is not None:
         warnings.append(f"side {where[2:].upper()}: {note}")
     what = "all episodes" if ids is None else f"run{'s' if len(ids) > 1 else ''} {','.join(map(str, ids))}"
-    return frame, f"{what} of {db.display_url}" + (f", {chosen}" if chosen else "")
+    return frame, f"{what} of {db.display_url}" + (f", {chosen}" if chosen else ""), chosen
 
 
 def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None = None,
@@ -134,23 +135,20 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
                           "(--a RUNS --b RUNS, or --b-db URL)")
     warnings: list[str] = []
     with ResultsDB(db, create=False) as rdb:
-        fa, side_a = _side(rdb, a, level, "--a", benchmark_version, warnings)
+        fa, side_a, version_a = _side(rdb, a, level, "--a", benchmark_version, warnings)
         if b_db is not None:
             try:
                 rdb_b = ResultsDB(b_db, create=False)
             except DatabaseError as e:  # it suggests --db: the option here is --b-db
                 raise DatabaseError(f"--b-db: {str(e).split('; run `navbench all`')[0]}") from None
             with rdb_b:
-                fb, side_b = _side(rdb_b, b, level, "--b", benchmark_version, warnings)
+                fb, side_b, version_b = _side(rdb_b, b, level, "--b", benchmark_version, warnings)
         elif two_sides:
-            fb, side_b = _side(rdb, b, level, "--b", benchmark_version, warnings)
+            fb, side_b, version_b = _side(rdb, b, level, "--b", benchmark_version, warnings)
         else:
-            fb, side_b = fa, side_a
-    from navbench.results.versions import versions_of
-
-    va_, vb_ = (set(versions_of(f)) for f in (fa, fb))
-    if two_sides and va_ and vb_ and va_ != vb_:
-        warnings.append(f"side A is {', '.join(sorted(va_))} and side B {', '.join(sorted(vb_))}: a "
+            fb, side_b, version_b = fa, side_a, version_a
+    if two_sides and version_a and version_b and version_a != version_b:
+        warnings.append(f"side A is {version_a} and side B {version_b}: a "
                         "comparison across benchmark versions (what a version's acceptance test measures)")
     for frame, side in ((fa, side_a), (fb, side_b)):
         if frame.empty:
