@@ -16,22 +16,19 @@ batch reaches it), which costs O(batch) instead of O(grid) per step — a dense 
 3.2 M grid values is slower than the whole rest of a step on 2 CPU cores.
 ``optimizer="adam"`` is the paper's dense Adam (``torch.optim.Adam(fused=True)``).
 
-Devices (``FitConfig.device``, default ``"auto"``: the CPU path on every machine, measured faster
-than the device path even on an H100 (docs/notebook/gpu.md), and one map per cache key everywhere):
+Devices (``FitConfig.device``, default ``"auto"``: the CPU path on every machine, and one map per
+cache key everywhere; docs/notebook/gpu.md has the measurements):
 
 ``"cpu"``
     the path above: numpy grids, numba crossing search and row updates, autograd on the
     bracket values only.
 ``"cuda"`` / ``"cuda:N"`` (and ``"torch-cpu"``, the same code on the CPU, for the tests)
-    the device path: the grids are torch tensors on the device;
-    :func:`~navbench.worldmodel.diffrender.render_rays_torch` searches every ray sample there
-    without autograd and differentiates the bracket (the gradients of the dense reference,
-    tested); :class:`MaskedAdam` applies lazy Adam to the cells the step's lookups touched
-    (:func:`~navbench.worldmodel.diffrender.stencil_mask`: the CPU path's touched set, tested),
-    or torch's fused Adam for ``optimizer="adam"``. Same batches (the sampler and the
-    free-space points are drawn on the CPU by the same seeded generators), same objective, same
-    optimiser semantics; the two paths part after a few steps only through float32 rounding
-    (the CPU path places samples in float64), so their maps agree in quality, not bit for bit.
+    the device path, :mod:`navbench.worldmodel.fit_device`: the views and grids on the device,
+    the batch drawn there by a seeded torch generator, fixed shapes and no host
+    synchronisation, so that on CUDA the whole step is captured once as a CUDA graph and
+    replayed. Same objective, initialisation and optimiser arithmetic (lazy Adam as a masked
+    update of every cell, tested against the CPU path's row update); different (equally seeded)
+    batches, so its maps agree with the CPU path's in quality, not bit for bit.
 
 The paper does not say how the grids are initialised, and an empty grid has no crossing and so
 no gradient. Two documented additions, both named :class:`FitConfig` options:
@@ -115,11 +112,10 @@ class FitConfig:
     optimizer: str = "lazy-adam"  # "adam": dense torch Adam (fused); "lazy-adam": touched cells only
     seed: int = 0  # seed of the batch sampling
     threads: int = 1  # torch threads during the fit (the torch graph is tiny; 1 avoids spin contention)
-    # where the fit runs: "auto" = "cpu" (module docstring); "cpu" = the sparse
-    # numba path; "cuda" / "cuda:N" = the device path on that GPU (render_rays_torch, the same
-    # objective, batches and optimiser semantics: MaskedAdam for "lazy-adam", fused Adam for
-    # "adam"); "torch-cpu" = the device path on the CPU (slow; it exists so the GPU path's code
-    # is tested on machines without a GPU). The map's metrics record the device that ran.
+    # where the fit runs: "auto" = "cpu" (module docstring); "cpu" = the sparse numba path;
+    # "cuda" / "cuda:N" = the device path on that GPU (navbench.worldmodel.fit_device);
+    # "torch-cpu" = the device path on the CPU (slow; it exists so the GPU path's code is
+    # tested on machines without a GPU). The map's metrics record the device that ran.
     device: str = "auto"
 
     def __post_init__(self):
@@ -414,8 +410,20 @@ class _FitLog:
         self.hits.append(float(mask.float().mean()))
         if (it + 1) % 100 == 0:
             self.curve.append(float(np.mean(self.recent[-100:])))
-        if self.progress is not None and ((it + 1) % 10 == 0 or it + 1 == self.steps):
-            self.progress(it + 1, self.steps, lv)
+        if (it + 1) % 10 == 0 or it + 1 == self.steps:
+            self.progress_at(it + 1, lv)
+
+    def progress_at(self, done: int, loss: float) -> None:
+        """Call ``progress(done, steps, loss)`` (the device path calls it every 10 steps)."""
+        if self.progress is not None:
+            self.progress(done, self.steps, loss)
+
+    def bulk(self, losses: np.ndarray, hits: np.ndarray) -> None:
+        """Every step's NLL and hit fraction at once (the device path, read back at the end)."""
+        self.recent = [float(v) for v in losses]
+        self.hits = [float(v) for v in hits]
+        self.curve = [float(np.mean(self.recent[k - 100:k]))
+                      for k in range(100, len(self.recent) + 1, 100)]
 
 
 def _finish_fit(views: Views, config: FitConfig, spec, occ: np.ndarray, col: np.ndarray,
@@ -458,143 +466,14 @@ def resolve_fit_device(device: str) -> str:
     return device
 
 
-class MaskedAdam:
-    """Lazy Adam on torch tensors, on any device: the device path's ``optimizer="lazy-adam"``.
-
-    ``step(touched)`` updates the rows (cells: an occupancy, or the three colour channels)
-    marked in the boolean ``touched`` mask of each parameter, and only those: their moments
-    decay and their values move on the steps that touch them (``torch.optim.SparseAdam``
-    semantics, bias correction by the global step count) -- the arithmetic of the CPU path's
-    :class:`_SparseGrad`, and the same touched rows when the masks come from
-    :func:`~navbench.worldmodel.diffrender.stencil_mask` of the looked-up points. Without
-    masks, the rows with a nonzero gradient are the touched ones. Dense Adam instead keeps
-    moving every cell the batches once reached by its momentum, which doubles the colour error
-    of a fit (module docstring). Cost: O(touched rows) per step plus one pass over the mask.
-    """
-
-    def __init__(self, params, lr: float, betas=(0.9, 0.999), eps: float = 1e-8):
-        import torch
-
-        self.params = list(params)
-        self.lr, self.b1, self.b2, self.eps = float(lr), float(betas[0]), float(betas[1]), float(eps)
-        self.m = [torch.zeros_like(p) for p in self.params]
-        self.v = [torch.zeros_like(p) for p in self.params]
-        self.t = 0
-
-    def zero_grad(self) -> None:
-        for p in self.params:
-            p.grad = None
-
-    def step(self, touched=None) -> None:
-        """One step; ``touched``: a bool ``(rows,)`` mask per parameter (or ``None``: rows
-        with a nonzero gradient). A touched row without a gradient counts as gradient 0."""
-        import torch
-
-        self.t += 1
-        bc1 = 1.0 - self.b1 ** self.t
-        bc2 = 1.0 - self.b2 ** self.t
-        with torch.no_grad():
-            for k, (p, m, v) in enumerate(zip(self.params, self.m, self.v)):
-                C = p.shape[-1] if p.dim() == 4 else 1
-                g = p.grad.reshape(-1, C) if p.grad is not None else None
-                if touched is None:
-                    if g is None:
-                        continue
-                    mask = (g != 0).any(dim=1)
-                else:
-                    mask = touched[k]
-                rows = mask.nonzero().squeeze(1)
-                if rows.numel() == 0:
-                    continue
-                gr = g.index_select(0, rows) if g is not None else p.new_zeros((rows.numel(), C))
-                mr = m.view(-1, C).index_select(0, rows).mul_(self.b1).add_(gr, alpha=1.0 - self.b1)
-                vr = v.view(-1, C).index_select(0, rows).mul_(self.b2).addcmul_(gr, gr, value=1.0 - self.b2)
-                m.view(-1, C).index_copy_(0, rows, mr)
-                v.view(-1, C).index_copy_(0, rows, vr)
-                upd = (mr / bc1).div_((vr / bc2).sqrt_().add_(self.eps)).mul_(self.lr)
-                p.view(-1, C).index_add_(0, rows, upd, alpha=-1.0)
-
-
 def _fit_map_torch(views: Views, config: FitConfig, device: str, progress, heldout, level):
-    """The fit on a torch device (CUDA, or the CPU as ``torch-cpu``): eq. 1 by
-    :func:`~navbench.worldmodel.diffrender.render_rays_torch` (every ray sample searched on the
-    device without autograd, the bracket with it; the gradients of the dense reference), eq. 2-3
-    and the free-space term as in :func:`fit_map`, and :class:`MaskedAdam`
-    (``optimizer="lazy-adam"``) or torch's Adam (``"adam"``, ``fused=True`` on CUDA). Same
-    config, same batches, same outputs as the CPU path."""
-    import torch
+    """The fit on a torch device: :func:`navbench.worldmodel.fit_device.fit_map_device` (the
+    batch drawn on the device, fixed shapes, a CUDA graph on CUDA) between this module's
+    initialisation and finish."""
+    from navbench.worldmodel.fit_device import check_device_memory, fit_map_device
 
-    from navbench.worldmodel.diffrender import laplace_nll, render_rays_torch, stencil_mask, trilinear_t
-
-    dev = torch.device("cpu" if device == "torch-cpu" else device)
-    if dev.type == "cuda":
-        # the grids, gradients and Adam moments live on the GPU (64 bytes per cell): check its
-        # free memory as fit_map checked the host's
-        from navbench.worldmodel.memory import format_bytes
-
-        free, _total = torch.cuda.mem_get_info(dev)
-        cells = math.prod(int(v) for v in config.grid_shape)
-        need = cells * 64 + (fit_memory_bytes(config) - cells * FIT_BYTES_PER_CELL)
-        if need > free:
-            raise ConfigError(f"fit: grid_shape {list(config.grid_shape)} ({cells} cells) needs "
-                              f"{format_bytes(need)} of GPU memory on {dev}, only "
-                              f"{format_bytes(free)} is free")
+    check_device_memory(views, config, device)
     spec, occ0, col0 = initial_grids(views, config)
-    occ = torch.tensor(occ0, device=dev, requires_grad=True)
-    col = torch.tensor(col0, device=dev, requires_grad=True)
-    sigma2 = torch.tensor(float(config.sigma2_init), device=dev, requires_grad=True)
-    lazy = config.optimizer == "lazy-adam"
-    if lazy:
-        opt = MaskedAdam([occ, col], lr=config.lr)
-    else:
-        opt = torch.optim.Adam([occ, col], lr=config.lr, fused=dev.type == "cuda")
-    opt_s = torch.optim.Adam([sigma2], lr=config.sigma2_lr)
-    sampler = BatchSampler(views, config.images_per_batch, config.pixels_per_image, config.seed)
-    rng = np.random.default_rng([int(config.seed), 1])
-    step, n = config.step, config.n_samples
     log = _FitLog(config.steps, progress)
-    old_threads = torch.get_num_threads()
-    if dev.type == "cpu":
-        torch.set_num_threads(max(1, config.threads))
-    try:
-        t0 = time.perf_counter()
-        for it in range(config.steps):
-            o, d, rgb, dep, valid, free, solid = _draw(sampler, rng, config)
-            o_d, d_d = o.to(dev), d.to(dev)
-            rgb_d, dep_d, valid_d = rgb.to(dev), dep.to(dev), valid.to(dev)
-            out = render_rays_torch(occ, col, spec, config.tau, o_d, d_d, step, n)
-            mask = out.hit & valid_d
-            loss = laplace_nll(out.rgb, out.depth, rgb_d, dep_d, sigma2, mask=mask)
-            total = loss
-            occ_points = [out.occ_points]
-            if free is not None:
-                pts = torch.from_numpy(np.concatenate([free, solid]).astype(np.float32)).to(dev)
-                f = trilinear_t(occ, spec, pts)
-                total = total + config.free_space_weight * free_space_hinge(
-                    f[: len(free)], f[len(free):], config.tau, config.free_space_delta)
-                occ_points.append(pts)
-            opt.zero_grad()
-            opt_s.zero_grad(set_to_none=True)
-            total.backward()
-            if lazy:
-                t_occ = None
-                for pts in occ_points:
-                    t_occ = stencil_mask(spec, pts, t_occ)
-                opt.step([t_occ, stencil_mask(spec, out.col_points)])
-            else:
-                opt.step()
-            if bool(mask.any()):
-                opt_s.step()
-            with torch.no_grad():
-                sigma2.clamp_(min=config.min_sigma2)
-            log.record(it, loss, mask)  # reads the loss back: the step has finished on the device
-        elapsed = time.perf_counter() - t0
-    finally:
-        torch.set_num_threads(old_threads)
-    where = {"device": "torch-cpu"}
-    if dev.type == "cuda":
-        idx = dev.index if dev.index is not None else torch.cuda.current_device()
-        where = {"device": f"cuda:{idx}", "device_name": torch.cuda.get_device_name(idx)}
-    return _finish_fit(views, config, spec, occ.detach().to("cpu").numpy().astype(np.float32),
-                       col.detach().to("cpu").numpy().astype(np.float32), float(sigma2.detach()),
-                       elapsed, log, heldout, level, where)
+    occ, col, sigma2, elapsed, ran = fit_map_device(views, config, device, log, spec, occ0, col0)
+    return _finish_fit(views, config, spec, occ, col, sigma2, elapsed, log, heldout, level, ran)

@@ -4,7 +4,7 @@ Eq. 3's gradient touches only the cells around the sampled rays, so the fit accu
 gradient of those rows (:func:`_scatter_mark`, which also lists each touched row once), applies
 Adam to them alone (:func:`_adam_rows`: the rows are distinct, so they update in parallel with
 the same result as one thread), and clears them (:func:`_zero_touched`). The torch device path
-(:class:`navbench.worldmodel.fit.MaskedAdam`) has the same semantics and is tested against it.
+(:class:`navbench.worldmodel.fit_device.MaskedAdam`) has the same semantics and is tested against it.
 """
 
 from __future__ import annotations

@@ -90,7 +90,7 @@ def test_masked_adam_equals_the_cpu_lazy_adam(device):
     """The device path's optimiser and the CPU path's numba rows update: same touched rows and
     gradients in, same moments and values out, over steps that touch different rows (some of
     them touched with a zero gradient, which still moves by momentum)."""
-    from navbench.worldmodel.fit import MaskedAdam
+    from navbench.worldmodel.fit_device import MaskedAdam
 
     rng = np.random.default_rng(1)
     for shape in ((6, 5, 4), (6, 5, 4, 3)):
@@ -214,9 +214,9 @@ def test_evaluate_true_map_is_near_perfect(room, data):
 
 @pytest.mark.parametrize("device", ["torch-cpu"] + DEVICES[1:])
 def test_device_path_fits_the_tiny_level_as_well_as_the_cpu_path(room, data, device):
-    """The GPU path (torch renderer, masked lazy Adam) run on the CPU: same objective, same
-    batches, same optimiser semantics, so the map is as good as the CPU path's (the paths part
-    after a few steps through float32 rounding, so the maps are compared by their quality)."""
+    """The device path (batches drawn on the device, masked lazy Adam; a CUDA graph on CUDA),
+    run on the CPU as ``torch-cpu``: same objective and optimiser semantics, other (equally
+    seeded) batches, so the map is as good as the CPU path's, compared by its quality."""
     train, held = data
     vmap, m = fit_map(train, FitConfig(seed=7, device=device, **QUICK), heldout=held, level=room)
     _, ref = fit_map(train, FitConfig(seed=7, device="cpu", **QUICK), heldout=held, level=room)

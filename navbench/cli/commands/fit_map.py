@@ -96,6 +96,9 @@ def register(app: typer.Typer) -> None:
         out.update(level=level, map_key=ref.key, cached=ref.cached, path=str(ref.path),
                    coverage=m.get("coverage"), heldout_views=m.get("heldout_views"),
                    device=m.get("device", "cpu"))
+        for k in ("device_name", "cuda_graph", "graph_error", "ms_per_step"):  # how a device fit ran
+            if k in m:
+                out[k] = m[k]
         if "train_views" in m:
             out.update(views=ref.name, train_views=m["train_views"], split=m.get("split"),
                        views_key=m.get("views_key"))

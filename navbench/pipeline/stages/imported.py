@@ -19,7 +19,7 @@ from navbench.errors import ArtifactError, ConfigError
 from navbench.pipeline.artifacts import METRICS_FILE, MAP_FILE, VIEWS_FILE
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.level import load_level_ref
-from navbench.pipeline.stages.maps import FitMapConfig
+from navbench.pipeline.stages.maps import FitMapConfig, fit_key_settings
 from navbench.worldmodel.tum import MAX_HEIGHT_DEV, MAX_TILT_DEG
 
 #: Cache stages whose artifacts hold a views directory (``VIEWS_FILE``).
@@ -180,7 +180,7 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
         _require_depth(views, "--views")
         _require_depth(heldout, "--heldout")
         _require_disjoint(views, views_key, heldout, heldout_key)
-    resolved = {"fit": to_jsonable(fit_cfg),
+    resolved = {**fit_key_settings(fit_cfg),
                 "heldout": "given" if heldout is not None else f"every {cfg.heldout_every}"}
     inputs = {"views": views_key}
     if heldout is not None:

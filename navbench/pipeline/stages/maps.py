@@ -40,6 +40,22 @@ class FitMapConfig:
         return FitConfig(**kw)
 
 
+#: The device path's generation in a fit key: 2 since its batches are drawn on the device
+#: (navbench.worldmodel.fit_device); maps of the first device path (host-drawn batches) keep
+#: their keys and are not served for the new one. CPU-path keys carry nothing.
+DEVICE_PATH = 2
+
+
+def fit_key_settings(fit_cfg) -> dict:
+    """What a resolved :class:`~navbench.worldmodel.fit.FitConfig` puts into a fit key: its
+    fields, and :data:`DEVICE_PATH` when the fit runs on a torch device (``cuda``,
+    ``torch-cpu``), whose batches and arithmetic differ from the CPU path's."""
+    out = {"fit": to_jsonable(fit_cfg)}
+    if fit_cfg.device not in ("cpu", "auto"):
+        out["device_path"] = DEVICE_PATH
+    return out
+
+
 #: Fields the fit-map command's ``--json`` always prints.
 MAP_METRIC_KEYS = ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "fit_seconds", "steps")
 
@@ -48,7 +64,7 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
     """Fit a voxel map to ``views``, evaluate it on ``eval_views`` and the level's true slice;
     the artifact holds ``map.npz`` and ``metrics.json``. ``ref.meta`` is the metrics dict."""
     fit_cfg = cfg.fit_config()
-    resolved = {"fit": to_jsonable(fit_cfg), "eval_count": cfg.eval_count}
+    resolved = {**fit_key_settings(fit_cfg), "eval_count": cfg.eval_count}
 
     def compute(d: Path) -> None:
         from navbench.worldmodel.fit import evaluate_map, fit_map
