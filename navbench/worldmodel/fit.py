@@ -452,9 +452,10 @@ def _finish_fit(views: Views, config: FitConfig, spec, occ: np.ndarray, col: np.
 
 def resolve_fit_device(device: str) -> str:
     """``"cpu"`` (sparse numba path), a torch device string for the dense path, from a
-    :class:`FitConfig` ``device``. ``"auto"`` is the CPU path whatever torch sees: the device
-    path is slower even on an H100 (module docstring), and a key that meant a GPU fit on one
-    machine and a CPU fit on another would name two different maps."""
+    :class:`FitConfig` ``device``. ``"auto"`` is the CPU path whatever torch sees here: a key
+    that meant a GPU fit on one machine and a CPU fit on another would name two different maps.
+    The stages resolve ``"auto"`` per machine before keying (:mod:`navbench.pipeline.devices`:
+    CUDA where that machine's bench measured it faster), so the key names what ran."""
     import torch
 
     if device == "auto":

@@ -136,8 +136,8 @@ class DeviceViews:
         poses = np.asarray(views.poses)
         self.origins = f32(np.column_stack([poses[:, 0], poses[:, 1],
                                             np.full(len(poses), views.camera_height)]))
-        self.rgb = torch.as_tensor(np.ascontiguousarray(np.asarray(views.rgb).reshape(-1, 3)),
-                                   device=device)
+        # a copy (torch.tensor): the views may be a read-only memory map
+        self.rgb = torch.tensor(np.asarray(views.rgb).reshape(-1, 3), device=device)
         depth = np.asarray(views.depth, np.float32).reshape(-1)
         valid = np.asarray(views.valid).reshape(-1) & np.isfinite(depth)
         self.depth = f32(np.where(valid, depth, 0.0))

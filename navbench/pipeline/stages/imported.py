@@ -19,7 +19,7 @@ from navbench.errors import ArtifactError, ConfigError
 from navbench.pipeline.artifacts import METRICS_FILE, MAP_FILE, VIEWS_FILE
 from navbench.pipeline.stages.context import Ref, StageContext
 from navbench.pipeline.stages.level import load_level_ref
-from navbench.pipeline.stages.maps import FitMapConfig, fit_key_settings
+from navbench.pipeline.stages.maps import FitMapConfig, fit_key_settings, resolve_fit_device
 from navbench.worldmodel.tum import MAX_HEIGHT_DEV, MAX_TILT_DEG
 
 #: Cache stages whose artifacts hold a views directory (``VIEWS_FILE``).
@@ -170,7 +170,7 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
     the resolved fit config, the split and the content keys; ``ref.meta`` is the metrics."""
     from navbench.worldmodel.views import heldout_split
 
-    fit_cfg = cfg.fit_config()
+    fit_cfg = resolve_fit_device(ctx, cfg.fit_config())
     if heldout is None:
         train_idx, held_idx = heldout_split(len(views), cfg.heldout_every)  # nothing held out fails now
         _require_depth(views, "--views (the fitted part of the split)", train_idx)

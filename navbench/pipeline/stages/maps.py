@@ -56,6 +56,21 @@ def fit_key_settings(fit_cfg) -> dict:
     return out
 
 
+def resolve_fit_device(ctx: StageContext, fit_cfg):
+    """``fit_cfg`` with an ``"auto"`` device resolved for this machine
+    (:func:`navbench.pipeline.devices.resolve_auto_fit_device`), said in the run's log when it
+    leaves the CPU path."""
+    if fit_cfg.device != "auto":
+        return fit_cfg
+    from navbench.pipeline.devices import resolve_auto_fit_device
+
+    device, why = resolve_auto_fit_device(ctx.db)
+    if device == "auto":
+        return fit_cfg
+    ctx.log(f"fit-map: {why}")
+    return dataclasses.replace(fit_cfg, device=device)
+
+
 #: Fields the fit-map command's ``--json`` always prints.
 MAP_METRIC_KEYS = ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "fit_seconds", "steps")
 
@@ -63,7 +78,7 @@ MAP_METRIC_KEYS = ("depth_mae_m", "rgb_l1", "slice_precision", "slice_recall", "
 def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cfg: FitMapConfig) -> Ref:
     """Fit a voxel map to ``views``, evaluate it on ``eval_views`` and the level's true slice;
     the artifact holds ``map.npz`` and ``metrics.json``. ``ref.meta`` is the metrics dict."""
-    fit_cfg = cfg.fit_config()
+    fit_cfg = resolve_fit_device(ctx, cfg.fit_config())
     resolved = {**fit_key_settings(fit_cfg), "eval_count": cfg.eval_count}
 
     def compute(d: Path) -> None:
