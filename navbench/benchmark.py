@@ -11,7 +11,14 @@ estimators' defaults and the scoring rules. Results are only comparable within o
   (:func:`navbench.results.versions.choose_version`);
 * a version other than the first is part of every cache key it affects
   (:func:`key_part`: empty for ``navbench-1``, so the keys of everything stored before versions
-  existed are unchanged).
+  existed are unchanged; :func:`affected_stages` says which).
+
+A version is a table of settings (:data:`VERSION_SETTINGS`): the profile settings it fixes, by
+the dotted keys ``--set`` takes. A profile naming the version (``benchmark_version = "..."``)
+takes them as defaults; the profile or ``--set`` may still set each, and the run then departs from
+the version (:mod:`navbench.pipeline.versioning`). ``navbench-1`` is the empty table: the stage
+configs' own defaults are its values, so a lever a later version turns on is a config field whose
+default is ``navbench-1``'s behaviour.
 
 Bit-identity guards a refactor (tests/pipeline/test_golden_rows.py); a change meant to alter
 results is a new version here, with a changelog entry (docs/changelog.md) and the paired
@@ -29,6 +36,23 @@ VERSIONS: dict[str, str] = {
 BENCHMARK_VERSION = "navbench-1"
 #: The version of rows stored before the column existed.
 LEGACY_VERSION = "navbench-1"
+#: The settings each version fixes: a profile's dotted setting (a key ``--set`` takes, for example
+#: ``"fit.seed"``, ``"views.camera"``, ``"navigation.episode.<field>"``,
+#: ``"navigation.options.<estimator>.<option>"``) -> its value under the version. Only keys under
+#: :data:`SETTING_STAGES` are allowed (``[conditions]`` names: their ``navigation.episode`` field).
+VERSION_SETTINGS: dict[str, dict[str, object]] = {
+    "navbench-1": {},
+}
+#: Where a version's setting reaches the cache keys: the dotted prefix of a setting -> the stages
+#: whose own key carries the version (:func:`key_part`). Every stage downstream changes with its
+#: inputs' keys, and the navigation grid's cells (episode rows, trajectories, score, report) carry
+#: every version but ``navbench-1`` whatever its settings, so "navigation." and "scoring." name
+#: no stage of their own.
+SETTING_STAGES: dict[str, tuple[str, ...]] = {
+    "levels": ("make-level",), "level_seed": ("make-level",),
+    "views.": ("collect-views",), "fit.": ("fit-map",), "tasks.": ("sample-tasks",),
+    "navigation.goal_localizer.": ("image-goals",), "navigation.": (), "scoring.": (),
+}
 #: The Gymnasium environment id of each version (the id's suffix follows the images).
 GYM_IDS: dict[str, str] = {"navbench-1": "navbench/PointNav-v0"}
 
@@ -54,6 +78,43 @@ def version_rank(name: str) -> int:
 def newest(names) -> str:
     """The newest of ``names`` (a non-empty iterable of version names)."""
     return max(names, key=lambda n: (version_rank(n), n))
+
+
+def version_settings(version: str) -> dict[str, object]:
+    """The settings ``version`` fixes (a copy of its :data:`VERSION_SETTINGS` table)."""
+    return dict(VERSION_SETTINGS.get(check_version(version), {}))
+
+
+def setting_stages(key: str) -> tuple[str, ...]:
+    """The stages whose own key a version's setting ``key`` reaches (:data:`SETTING_STAGES`);
+    :class:`UnknownVersion` for a key outside them (a version's table is code: a test checks it)."""
+    for prefix, stages in SETTING_STAGES.items():
+        if key == prefix or (prefix.endswith(".") and key.startswith(prefix) and len(key) > len(prefix)):
+            return stages
+    raise UnknownVersion(f"benchmark version setting {key!r}: not a setting a version may fix; "
+                         f"allowed: {', '.join(SETTING_STAGES)}")
+
+
+def affected_stages(version: str) -> frozenset[str]:
+    """The stages whose key carries ``version`` (:func:`key_part`): those its settings reach
+    (:func:`setting_stages`); none for ``navbench-1``. The grid's cells carry every later
+    version regardless (:func:`navbench.pipeline.stages.grid.make_cells`)."""
+    if version == LEGACY_VERSION:
+        return frozenset()
+    return frozenset(s for key in version_settings(version) for s in setting_stages(key))
+
+
+def settings_document(version: str) -> dict:
+    """The version's settings as a profile's TOML document (dotted keys nested into tables), the
+    base a profile file naming ``version`` is laid over."""
+    doc: dict = {}
+    for key, value in version_settings(version).items():
+        *tables, last = key.split(".")
+        node = doc
+        for t in tables:
+            node = node.setdefault(t, {})
+        node[last] = value
+    return doc
 
 
 def key_part(version: str = BENCHMARK_VERSION) -> dict:

@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from navbench.pipeline.profiles import DEFAULT_PROFILE, available_profiles, bundled_field_values
 
-__all__ = ["DB_HELP", "DB_URL", "DEFAULT_PROFILE", "SET_HELP", "VERSION_HELP", "bundled_profiles", "default",
+__all__ = ["DB_HELP", "DB_URL", "DEFAULT_PROFILE", "RUN_VERSION_HELP", "SET_HELP", "VERSION_HELP", "bundled_profiles", "default",
            "profile_default", "profile_help", "profile_values"]
 
 #: Help of the ``--set KEY=VALUE`` option of every command that takes a profile.
@@ -91,5 +91,9 @@ _DB_FILE = DB_URL.removeprefix("sqlite:///")
 #: Names the SQLite file rather than the whole URL: a word wider than the help column is cut
 #: short with an ellipsis at 80 columns.
 DB_HELP = f"Results database URL {default(f'$NAVBENCH_DB, else the SQLite file {_DB_FILE}')}."
+#: --benchmark-version of the commands that run a profile (issue 36).
+RUN_VERSION_HELP = ("Benchmark version to run under: the profile takes its settings, and what the profile "
+                    "file or --set sets wins (as --set benchmark_version=NAME) "
+                    + default("the profile's benchmark_version") + ".")
 VERSION_HELP = ("Benchmark version to read (results of two versions are never pooled) "
                 + default("the newest version in the selection") + ".")

@@ -9,6 +9,10 @@ takes the text as typed. The changed value is checked exactly as a profile field
 NaN and infinity refused), and the profile as a whole again (grid size, seeds), before any stage
 runs. The result is an ordinary :class:`~navbench.pipeline.profiles.Profile`: the run's resolved
 config stores it, and every cache key that reads the field changes with it (and only those).
+
+``benchmark_version=NAME`` is applied first, whatever its place among the items: the profile
+takes that version's settings (:func:`navbench.pipeline.versioning.with_version`), and every
+other item is set over them, so a value typed on the command line always wins.
 """
 
 from __future__ import annotations
@@ -73,7 +77,7 @@ def _typed(fname: str, text: str, label: str = "--set") -> Any:
         if text.strip().startswith("["):
             return _toml_value(text, label)
         return [t.strip() for t in text.split(",") if t.strip()]
-    if fname in ("name", "description", "camera", "map_source", "goal", "scoring_preset", "online_ablation"):
+    if fname in ("name", "description", "benchmark_version", "camera", "map_source", "goal", "scoring_preset", "online_ablation"):
         v = _toml_value(text, label)
         return v if isinstance(v, str) else text
     return _toml_value(text, label)
@@ -111,9 +115,16 @@ def apply_sets(profile, items: Iterable[str], where: str = "--set"):
     plain = _field_keys()
     changes: dict[str, Any] = {}
     conditions: dict[str, str] = {}
-    for item in items:
-        key, text = parse_set(item, where)
+    parsed = [parse_set(item, where) for item in items]
+    versions = [text for key, text in parsed if key == "benchmark_version"]
+    if versions:  # first: the version's settings are the defaults every other item is set over
+        from navbench.pipeline.versioning import with_version
+
+        profile = with_version(profile, _typed("benchmark_version", versions[-1]), where)
+    for key, text in parsed:
         label = f"{where} {key}"
+        if key == "benchmark_version":
+            continue
         if key in plain:
             fname, value = plain[key], _typed(plain[key], text, label)
         else:

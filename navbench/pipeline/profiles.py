@@ -5,6 +5,7 @@ grid. CLI options override single fields (:func:`override`). A profile argument 
 bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same layout::
 
     name = "quick"
+    benchmark_version = "navbench-1"   (optional; default navbench.benchmark.BENCHMARK_VERSION)
     levels = ["house-1"]
     level_seed = 1
     [views]       camera, count, seed, eval_count, eval_seed
@@ -17,6 +18,10 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
     [conditions]  the paper's simulator conditions by name (navbench.sim.conditions), e.g.
                   pose_quantisation = "round"; they set [navigation.episode] fields
     [scoring]     preset: "paper", "nrns" or "habitat" (navbench.nav.presets)
+
+``benchmark_version`` names the benchmark version the profile runs under: its settings
+(:data:`navbench.benchmark.VERSION_SETTINGS`) are the defaults the file is laid over, so every
+setting the file writes wins (:mod:`navbench.pipeline.versioning`).
 
 Unknown keys are errors (a typo must not silently fall back to a default). Every field is
 checked for its type and range when the profile is loaded and again after CLI overrides, so a
@@ -41,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
+from navbench import benchmark
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_NAMES
 from navbench.nav.presets import DIFFICULTY_BANDS, PRESETS, check_preset_steps
@@ -78,6 +84,10 @@ class Profile:
 
     name: str
     description: str = ""
+    # benchmark version (navbench.benchmark): a file without the key runs under BENCHMARK_VERSION
+    # with that version's settings; a Profile built in Python is navbench-1, whose settings the
+    # other fields' defaults are (pipeline.versioning.with_version changes it)
+    benchmark_version: str = benchmark.LEGACY_VERSION
     levels: tuple[str, ...] = ("house-1",)
     level_seed: int | None = None    # levelgen seed of the profile's levels without levels/NAME.json (None: such a level is an error)
     camera: str = "half"             # camera of views, simulator and estimators
@@ -130,6 +140,7 @@ def _online_ablations() -> tuple[str, ...]:
 FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "name": ("name", lambda v: _check_names([v], "profile", None)),
     "description": ("description", _check_str),
+    "benchmark_version": ("benchmark_version", lambda v: _check_str(v, tuple(benchmark.VERSIONS))),
     "levels": ("levels", lambda v: _check_names(v, "level", None)),
     "level_seed": ("level_seed", lambda v: None if v is None else _SEED.check(v)),
     "camera": ("[views] camera", lambda v: _check_str(v, CAMERA_NAMES)),
@@ -163,7 +174,7 @@ _TABLE_FIELDS = ("fit", "episode", "estimator_options")
 OPTION_NAMES = {"levels": "LEVELS", "estimators": "--estimators", "noise": "--noise",
                 "tasks": "--tasks", "seeds": "--seeds", "workers": "--workers", "map_source": "--map",
                 "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera", "goal": "--goal", "scoring_preset": "--preset",
-                "online_ablation": "--online-ablation"}
+                "online_ablation": "--online-ablation", "benchmark_version": "--benchmark-version"}
 
 
 def check_field(fname: str, value: Any, where: str, label: str | None = None) -> None:
@@ -205,7 +216,8 @@ def check_grid_size(p: Profile, where: str) -> None:
 
 
 _SECTIONS: dict[str, dict[str, str]] = {
-    "": {"name": "name", "description": "description", "levels": "levels", "level_seed": "level_seed"},
+    "": {"name": "name", "description": "description", "levels": "levels", "level_seed": "level_seed",
+         "benchmark_version": "benchmark_version"},
     "views": {"camera": "camera", "count": "views", "seed": "views_seed",
               "eval_count": "eval_views", "eval_seed": "eval_seed"},
     "fit": {"steps": "fit_steps", "seed": "fit_seed"},
@@ -224,6 +236,11 @@ def profile_from_dict(doc: dict[str, Any], source: str = "<profile>") -> Profile
     :class:`ConfigError` naming ``source`` and the field."""
     kw: dict[str, Any] = {}
     fit_extra: dict[str, Any] = {}
+    version = doc.get("benchmark_version", benchmark.BENCHMARK_VERSION)
+    check_field("benchmark_version", version, source)
+    if version != doc.get("benchmark_version"):
+        doc = {**doc, "benchmark_version": version}
+    doc = _merge(benchmark.settings_document(version), doc)  # the version's settings, under the file's
     for key, value in doc.items():
         if key in _SECTIONS and key != "":
             if not isinstance(value, dict):
@@ -347,6 +364,9 @@ def override(profile: Profile, **changes: Any) -> Profile:
     unknown = set(changes) - {f.name for f in dataclasses.fields(Profile)}
     if unknown:
         raise ConfigError(f"unknown profile field(s): {sorted(unknown)}")
+    if changes.get("benchmark_version", profile.benchmark_version) != profile.benchmark_version:
+        raise ConfigError("override: a profile's benchmark version changes with its settings; "
+                          "use navbench.pipeline.versioning.with_version")
     for k, v in changes.items():
         check_field(k, v, "command line", OPTION_NAMES.get(k, k))
     for k in ("levels", "estimators", "noise"):
@@ -388,6 +408,8 @@ def bundled_field_values(fname: str) -> dict[str, Any]:
             out[name] = {k: v for k, v in table.items() if k not in _SECTIONS["fit"]}
         elif key in table:
             out[name] = table[key]
+        elif fname == "benchmark_version":  # a file without the key: the current version
+            out[name] = benchmark.BENCHMARK_VERSION
         else:
             out[name] = default.default_factory() if default.default is dataclasses.MISSING else default.default
     return out

@@ -113,13 +113,16 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     the run instead (:meth:`ResultsDB.discard_run`), so no later run resumes it.
     With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
     cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
+    The run row's benchmark version (which every episode row it stores copies) is ``config``'s
+    ``benchmark_version`` (a profile's), else :data:`navbench.benchmark.BENCHMARK_VERSION`.
     """
     from navbench.config import config_hash, to_jsonable
 
     from navbench.errors import NavbenchError
 
     cfg = to_jsonable(config)
-    run_id = db.start_run(profile, command, cfg, config_hash(cfg))
+    version = getattr(config, "benchmark_version", None)
+    run_id = db.start_run(profile, command, cfg, config_hash(cfg), benchmark_version=version)
     status = "failed"
     try:
         yield run_id
@@ -140,6 +143,17 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
             ctx.store.set_ref(ref_name, ctx.used)
 
 
+def navigation_config(profile: "Profile"):
+    """The profile's run-navigation grid (:class:`~navbench.pipeline.stages.NavigationConfig`),
+    before image goals or the unknown-house loop are added (:func:`navigate`)."""
+    from navbench.pipeline.stages import NavigationConfig
+
+    return NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
+                            seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
+                            estimator_options=dict(profile.estimator_options), goal=profile.goal,
+                            benchmark_version=profile.benchmark_version)
+
+
 def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str = "local",
              address: str | None = None, chunk_size: int | None = None,
              progress: Progress | None = None) -> tuple[list["LevelInputs"], "NavigationSummary"]:
@@ -151,7 +165,7 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
     import time
 
     from navbench.pipeline.executor import make_executor
-    from navbench.pipeline.stages import NavigationConfig, build_level_inputs, run_navigation_stage
+    from navbench.pipeline.stages import build_level_inputs, run_navigation_stage
 
     progress = progress or SilentProgress()
     if executor == "local":  # stages that split items over local processes (image goals); 0: every CPU
@@ -171,10 +185,12 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
         if not any(uses_map(e) for e in profile.estimators):  # issue 35: say why a map is fitted
             ctx.log(f"fit-map: {', '.join(profile.estimators)} track without the map, but the agent "
                     "plans its path on it; --map true plans on the true geometry and fits nothing")
+    from navbench.pipeline.versioning import departures, version_line
+
+    if departures(profile):  # issue 36: a run of its version, but not the version's own settings
+        ctx.log(f"warning: {version_line(profile)}")
     inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
-    cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
-                           seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
-                           estimator_options=dict(profile.estimator_options), goal=profile.goal)
+    cfg = navigation_config(profile)
     from navbench.pipeline.stages.online import online_config
 
     online = online_config(profile.map_source, profile.online_ablation)

@@ -117,3 +117,15 @@ def test_db_runs_lists_the_runs_each_resumed(db, monkeypatch):
     rows = {ln.split("│")[1].strip(): ln for ln in res.stdout.splitlines() if ln.startswith("│")}
     assert "resumes" in res.stdout
     assert f"│ {a}, {b} " in rows[str(c)] and f"│ {a} " in rows[str(b)]
+
+
+def test_a_run_recorded_before_benchmark_versions_is_resumed_as_navbench_1(db):
+    """A profile's recorded config holds its benchmark version since issue 36; an interrupted run
+    recorded before (no such key) is the same measurement as its rerun under navbench-1, and
+    not as one under another version."""
+    old = _run(db, "interrupted", [0])
+    new = _run(db, "done", [1], config={**CONFIG, "benchmark_version": "navbench-1"})
+    assert resume_chain(db.runs_frame(), new) == [old, new]
+    other = _run(db, "interrupted", [2], config={**CONFIG, "tasks": 5})
+    later = _run(db, "done", [3], config={**CONFIG, "tasks": 5, "benchmark_version": "navbench-9"})
+    assert resume_chain(db.runs_frame(), later) == [later] and other not in resume_chain(db.runs_frame(), later)

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, SET_HELP, profile_default, profile_help
+from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, RUN_VERSION_HELP, SET_HELP, profile_default, profile_help
 from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.artifacts import PAIRED_FILE  # light
 from navbench.pipeline.profiles import MAX_WORKERS  # light
@@ -71,6 +71,8 @@ def register(app: typer.Typer) -> None:
     def all_(
         profile: str = typer.Option(DEFAULT_PROFILE, "--profile", help=profile_help("Profile", shows_default=True)),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        benchmark_version: str = typer.Option(None, "--benchmark-version", metavar="NAME", help=RUN_VERSION_HELP,
+                                              show_default=False),
         workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count "
                                  f"{profile_default('workers')}."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
@@ -95,12 +97,16 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import run_with_ui
         from navbench.pipeline.run import run_profile
 
-        if condition or sets:  # checked before any work, as run-navigation's
+        if condition or sets or benchmark_version is not None:  # checked before any work
             from navbench.pipeline.overrides import apply_sets
             from navbench.pipeline.profiles import load_profile, override
+            from navbench.pipeline.versioning import with_version
             from navbench.sim.conditions import conditions_to_episode, parse_condition_args
 
-            prof = apply_sets(load_profile(profile), sets)
+            prof = load_profile(profile)
+            if benchmark_version is not None:
+                prof = with_version(prof, benchmark_version, "command line", "--benchmark-version")
+            prof = apply_sets(prof, sets)
             if condition:
                 chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
                 prof = override(prof, episode={**prof.episode, **chosen})
@@ -123,6 +129,9 @@ def register(app: typer.Typer) -> None:
         nav = result.navigation
         label = conditions_label(dict(result.profile.episode)) + online_label(to_jsonable(result.profile))
         console.print(f"conditions: {escape(label)}", highlight=False)
+        from navbench.pipeline.versioning import version_line
+
+        console.print(escape(version_line(result.profile)), highlight=False)
         console.print(f"profile [bold]{escape(result.profile.name)}[/bold]: {nav.stored} new episodes, "
                       f"{nav.already_done + nav.stored}/{nav.total} stored; "
                       f"report {escape(str(result.report_path))}; {time.perf_counter() - t0:.1f} s")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP, SET_HELP, default, profile_default, profile_help
+from navbench.cli._help import DB_HELP, RUN_VERSION_HELP, SET_HELP, default, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
@@ -51,6 +51,8 @@ def register(app: typer.Typer) -> None:
                                             "endpoint (overrides the profile's \\[conditions] table)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile")),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        benchmark_version: str = typer.Option(None, "--benchmark-version", metavar="NAME", help=RUN_VERSION_HELP,
+                                              show_default=False),
         option: list[str] = typer.Option(None, "--option", "-o", metavar="ESTIMATOR.KEY=VALUE",
                                          help="Estimator option, repeatable (as track-eval's): "
                                          "-o ours.optimizer=adam; over the profile's "
@@ -75,7 +77,12 @@ def register(app: typer.Typer) -> None:
 
         from navbench.pipeline.stages.online import ONLINE_ESTIMATOR, is_online
 
-        base = apply_sets(load_profile(profile), sets)
+        base = load_profile(profile)
+        if benchmark_version is not None:
+            from navbench.pipeline.versioning import with_version
+
+            base = with_version(base, benchmark_version, "command line", "--benchmark-version")
+        base = apply_sets(base, sets)
         from navbench.pipeline.stages.level import check_typed_levels
 
         check_typed_levels(levels, base.levels)  # a typo is not a new level from level_seed

@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
+from navbench.benchmark import LEGACY_VERSION, affected_stages, key_part
+from navbench.config import to_jsonable
 from navbench.pipeline.cache import ArtifactStore, run_stage
 from navbench.pipeline.artifacts import FORMAT, VERIFY_FILE
 
@@ -28,6 +30,10 @@ class StageContext:
     ``levels_dir`` / ``tasks_dir``: where committed level and task files are looked up.
     ``workers``: local processes a stage may split independent items over (the image goals'
     localisations); how a stage runs, never part of a key: its artifact is the same for any.
+    ``benchmark_version``: the version the stages run under; the key of every stage it affects
+    (:func:`navbench.benchmark.affected_stages`) carries it (:func:`navbench.benchmark.key_part`,
+    nothing for ``navbench-1``). A profile's stages set it from the profile
+    (:func:`navbench.pipeline.stages.inputs.build_level_inputs`).
     """
 
     store: ArtifactStore
@@ -41,6 +47,7 @@ class StageContext:
     # (stage, seconds, cached) of every run() call: the per-stage breakdown (pipeline.breakdown)
     timings: list = field(default_factory=list)
     workers: int = 1
+    benchmark_version: str = LEGACY_VERSION
 
     def forced(self, stage: str) -> bool:
         return "*" in self.force or stage in self.force
@@ -49,6 +56,8 @@ class StageContext:
             compute: Callable[[Path], None],
             validate: Callable[[Path], None] | None = None) -> tuple[Path, str, bool]:
         t0 = time.perf_counter()
+        if stage in affected_stages(self.benchmark_version):
+            config = {**to_jsonable(config), **key_part(self.benchmark_version)}
         path, key, cached = run_stage(self.store, stage, config, inputs, FORMAT[stage], compute,
                                       force=self.forced(stage), log=self.log, validate=validate)
         self.timings.append((stage, time.perf_counter() - t0, bool(cached)))

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.benchmark import LEGACY_VERSION, key_part
 from navbench.config import config_hash, to_jsonable
 from navbench.errors import ConfigError
 from navbench.pipeline.artifacts import FORMAT
@@ -37,6 +38,9 @@ class NavigationConfig:
     image_goal: object = None
     # issue 15 §5: --map online, the unknown-house loop (stages.online.OnlineConfig; None: off)
     online: object = None
+    # issue 36: the benchmark version; every cell and condition key carries it (key_part:
+    # nothing for navbench-1), so the episodes of two versions are never one another's
+    benchmark_version: str = LEGACY_VERSION
 
 
 @dataclass(frozen=True)
@@ -145,17 +149,18 @@ def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
     from navbench.pipeline.stages.online import online_key_part
 
     episode = resolved_episode_config(cfg)
-    goal = {**goal_key_part(cfg), **online_key_part(cfg)}  # both {} for point goals on a given map
+    # all {} for point goals on a given map under navbench-1 (the keys stored before them)
+    extra = {**goal_key_part(cfg), **online_key_part(cfg), **key_part(cfg.benchmark_version)}
     cells = []
     for li in inputs:
         for noise in cfg.noise:
             condition = config_hash({"level": li.level.key, "map_key": li.map.key, "noise": noise,
-                                     "episode": episode, **goal})
+                                     "episode": episode, **extra})
             for est in cfg.estimators:
                 options = dict(cfg.estimator_options.get(est, {}))
                 key = config_hash({"level": li.level.key, "map_key": li.map.key, "task_set_key": li.tasks.key,
                                    "estimator": est, "estimator_options": options, "noise": noise,
-                                   "episode": episode, **goal})
+                                   "episode": episode, **extra})
                 cells.append(Cell(li.level.name, li.level.key, li.map.key, li.tasks.key, est, options,
                                   noise, dict(cfg.episode), key, condition))
     return cells

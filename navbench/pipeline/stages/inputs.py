@@ -35,6 +35,7 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
     map file path, where ``{level}`` stands for the level's name (:func:`map_file_stage`)."""
     from navbench.pipeline.stages.online import is_online
 
+    under_version(ctx, profile)
     source = profile.map_source
     one_file = source not in ("fit", "true") and not is_online(source) and LEVEL_PLACEHOLDER not in source
     if one_file and len(set(profile.levels)) > 1:
@@ -51,6 +52,11 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
     vmap = fit_map_for_profile(ctx, profile, level, views_key)
     tasks = sample_tasks_stage(ctx, level, tasks_config(profile))
     return LevelInputs(level, vmap, tasks)
+
+
+def under_version(ctx: StageContext, profile) -> None:
+    """Run ``ctx``'s stages under ``profile``'s benchmark version (the keys it affects carry it)."""
+    ctx.benchmark_version = getattr(profile, "benchmark_version", ctx.benchmark_version)
 
 
 def tasks_config(profile) -> TasksConfig:
@@ -70,6 +76,7 @@ def with_image_goals(ctx: StageContext, inputs: LevelInputs, cfg) -> LevelInputs
 
 def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:
     """collect-views (train and held-out) -> fit-map for one level with ``profile``'s settings."""
+    under_version(ctx, profile)
     cfg = FitMapConfig(profile.fit_steps, profile.fit_seed, dict(profile.fit), profile.eval_views,
                        profile.eval_seed)
     fit_cfg = cfg.fit_config()  # a bad fit option fails here, before any views are collected

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 from typing import TYPE_CHECKING
 
+from navbench.benchmark import LEGACY_VERSION
 from navbench.errors import DatabaseError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -40,6 +41,7 @@ def _measurement(row) -> str | None:
     if not isinstance(config, dict) or not config:
         return None
     config = {k: v for k, v in config.items() if k not in EXECUTION_FIELDS}
+    config.setdefault("benchmark_version", LEGACY_VERSION)  # recorded before versions (issue 36)
     words = str(row["command"] or "").split()
     verb = words[1] if len(words) > 1 and words[0].endswith("navbench") else (words[0] if words else "")
     return json.dumps([row["profile"], verb, config], sort_keys=True, default=str)
