@@ -219,3 +219,11 @@ def test_the_simulator_and_the_episode_agree_on_the_texture():
     assert sim.texture == "table"
     with pytest.raises(ConfigError, match="texture"):
         run_episode(rooms(), None, None, None, None, None, sim, EpisodeConfig())
+
+
+def test_the_gym_env_passes_the_texture_to_its_camera():
+    from navbench.sim.env import PointNavEnv
+
+    env = PointNavEnv(rooms(), texture="table")
+    assert env.sim.texture == env.sim.camera.texture == "table"
+    assert PointNavEnv(rooms()).sim.camera.texture == "procedural"
