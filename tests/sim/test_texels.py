@@ -227,3 +227,15 @@ def test_the_gym_env_passes_the_texture_to_its_camera():
     env = PointNavEnv(rooms(), texture="table")
     assert env.sim.texture == env.sim.camera.texture == "table"
     assert PointNavEnv(rooms()).sim.camera.texture == "procedural"
+
+
+def test_scores_never_pool_texture_modes():
+    """A run whose episodes used texture tables gets its own conditions label (score and the
+    report group and pair by it); the default keeps the label stored runs have."""
+    from navbench.results.score import conditions_label, short_conditions
+
+    plain = conditions_label({})
+    assert conditions_label({"texture": "procedural"}) == plain and "texture" not in plain
+    table = conditions_label({"texture": "table"})
+    assert table == plain + ", texture=table"
+    assert short_conditions(table) == "texture=table" and short_conditions(plain) == "defaults"
