@@ -15,8 +15,8 @@ are most of a frame (issue 36). The modes:
     (the bilinear interpolation bound, ``w_k`` the weights of the sines: 1/3 each for
     ``waves``, 0.7 and 0.3 for ``tiles``), times ``amp`` in colour (``clip`` does not grow
     it). ``h`` is the largest power of two that keeps that colour bound within
-    :data:`TABLE_TOLERANCE` for every texture of the level (1/128 m for the benchmark's
-    levels, whose frequencies stay below 2.5 cycles/m), unless the tables would outgrow
+    :data:`TABLE_TOLERANCE` for every texture of the level (1/64 m for every committed level,
+    bounds 1.3e-3 to 1.7e-3: their frequencies stay below 2.5 cycles/m), unless the tables would outgrow
     :data:`MAX_TABLE_BYTES` (then ``h`` doubles and :attr:`TexelTables.bound` says the
     bound it gives). A hit outside its surface's table (the floor seen beyond the level's
     box) falls back to the procedural formula.
