@@ -37,6 +37,7 @@ PINNED_METRIC_KEYS = [
     "fusion_ms_half", "fusion_ms_paper",
     "agent_step_ms_paper_ref05", "control_step_ms_paper_ref05",  # issue 17, part 2
     "e2e_episodes_per_min_paper_ref05",  # the paper profile's ours
+    "sim_frame_texture_ratio_half", "sim_frame_texture_ratio_paper",  # issue 36: texture modes
 ]
 #: The other top-level keys of the result (host, map, config, per-key tables ...).
 PINNED_OTHER_KEYS = {
@@ -60,6 +61,7 @@ PINNED_PROGRESS = [
     "online fusion (half)", "online fusion (paper)",
     "agent step (paper, reference_scale 0.5)", "control step (paper, reference_scale 0.5)",
     "end to end (2 tasks x 1 estimators, 2 workers), paper camera, ours reference_scale 0.5",
+    "simulator frame, texture modes (half)", "simulator frame, texture modes (paper)",
     "done",
 ]
 
@@ -90,6 +92,9 @@ def fake_timers(monkeypatch):
     for name in ("time_sim_frame", "time_sim_step", "time_map_render", "time_diff_render",
                  "time_fit_step", "time_plan", "time_tracking", "time_control_step", "time_fusion"):
         monkeypatch.setattr(timers, name, fake(name))
+    monkeypatch.setattr(timers, "time_sim_frame_textures",
+                        lambda *a, **k: {"procedural": [4.0, 6.0, 8.0], "table": [2.0, 2.0, 2.0],
+                                         "polynomial": [3.0, 3.0, 3.0]})
     monkeypatch.setattr(timers, "record_walk", lambda *a, **k: "walk")
     monkeypatch.setattr(timers, "bench_tasks", lambda *a, **k: [])
     monkeypatch.setattr(timers, "time_navigation", lambda *a, **k: timers.Throughput(2, 90, 1.5, 2))
@@ -112,6 +117,9 @@ def test_the_loop_gives_the_pinned_layout(fake_timers):
     assert result["track_ms_emission_half"] == 20.0  # quick: 10 Adam steps scaled to 100
     assert result["notes"]["track_ms_emission_half"].startswith("quick: measured with 10 Adam steps")
     assert result["emission_ours_ratio_half"] == 10.0 and result["units"]["emission_ours_ratio_half"] == "x"
+    # issue 36: the median of the interleaved per-repeat ratios, both medians in the note
+    assert result["sim_frame_texture_ratio_paper"] == 3.0
+    assert "procedural 6.00 ms, table 2.00 ms" in result["notes"]["sim_frame_texture_ratio_paper"]
     assert result["control_step_hz_half"] == 500.0 and result["stats"]["control_step_hz_half"]["q1"] == 1000 / 2.5
     assert result["e2e_episodes_per_min"] == 80.0 and result["e2e_steps_per_s"] == 60.0
     assert result["labels"]["e2e_steps_per_s"] == "episode steps per second (2 workers)"

@@ -300,6 +300,27 @@ def _track(cam: str, part: str, name: str, options: dict, label: str) -> Callabl
     return run
 
 
+def _texture_ratio(cam: str) -> Callable[[BenchContext, int], Reading]:
+    """Frame time of the procedural texture over the texel tables' (``texture="table"``), both
+    (and the polynomial sine) rendered in turn on the same poses, each repeat 10 poses: the
+    median of the per-repeat ratios, both medians in the note."""
+    def run(ctx: BenchContext, n: int) -> Reading:
+        import numpy as np
+
+        from navbench.bench.core import stats
+
+        t = timers.time_sim_frame_textures(ctx.level, CAMERAS[cam], max(n, 7), seed=ctx.seed)
+        proc, tab, poly = (np.asarray(t[m]) for m in ("procedural", "table", "polynomial"))
+        ratio = proc / tab
+        return Reading(value=float(np.median(ratio)), stats=stats(ratio),
+                       note=(f"interleaved, {len(ratio)} repeats of 10 poses: procedural "
+                             f"{np.median(proc):.2f} ms, table {np.median(tab):.2f} ms, polynomial "
+                             f"{np.median(poly):.2f} ms (medians); procedural / polynomial "
+                             f"{np.median(proc / poly):.2f}x"))
+
+    return run
+
+
 def _ratio(cam: str) -> Callable[[BenchContext, int], float]:
     return lambda ctx, _n: ctx.value(f"track_ms_emission_{cam}") / ctx.value(f"track_ms_ours_adam_{cam}")
 
@@ -465,6 +486,10 @@ TABLE: tuple[Measurement, ...] = (
                 _e2e("episodes", "paper", "e2e_paper_ref05", ", ours reference_scale 0.5"), unit="episodes/min",
                 needs=_e2e_why,
                 uses=("e2e_paper_ref05",)),
+    # issue 36: the camera's texture modes, interleaved in one process (navbench.sim.texels)
+    *(Measurement(f"sim_frame_texture_ratio_{cam}", "simulator", f"sim frame procedural / table texture, {cam}",
+                  _texture_ratio(cam), unit="x", progress=f"simulator frame, texture modes ({cam})")
+      for cam in CAMERA_NAMES),
 )
 
 

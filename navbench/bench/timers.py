@@ -94,6 +94,15 @@ def time_sim_frame(level, intrinsics: Intrinsics, repeats: int, warmup: int = 2,
     return time_render(level, intrinsics, repeats=repeats, warmup=warmup, seed=seed, pixels=pixels)
 
 
+def time_sim_frame_textures(level, intrinsics: Intrinsics, repeats: int, seed: int = 0,
+                            modes=("procedural", "table", "polynomial")) -> dict[str, list[float]]:
+    """Milliseconds per full frame of each camera texture mode, interleaved on the same poses
+    (:func:`navbench.sim.bench.time_render_modes`)."""
+    from navbench.sim.bench import time_render_modes
+
+    return time_render_modes(level, intrinsics, modes, repeats=repeats, seed=seed)
+
+
 def time_sim_step(level, repeats: int, warmup: int = 10, seed: int = 0) -> list[float]:
     """One dynamics + collision step of the simulator, no rendering."""
     from navbench.sim.bench import time_step

@@ -62,6 +62,10 @@ class EpisodeConfig:
     # key (navbench.sim.conditions.KEY_NEUTRAL_FIELDS), so earlier keys stay valid
     pose_quantisation: str = "off"
     collision_check: str = "swept"
+    # how the simulator's camera evaluates textures (navbench.sim.texels.TEXTURE_MODES):
+    # "procedural" (libm sines per pixel, navbench-1's images) | "table" (texel tables, bilinear)
+    # | "polynomial"; left out of the episode key at "procedural" (KEY_NEUTRAL_FIELDS)
+    texture: str = "procedural"
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
 

@@ -170,6 +170,7 @@ EPISODE_RANGES: dict[str, Any] = {
     "controller.heading_threshold": _pos(), "controller.waypoint_tolerance": _pos(),
     "controller.lookahead": _int(1, 100_000), "controller.max_turn": _pos(), "controller.max_step": _pos(),
     "pose_quantisation": ("off", "round", "truncate"), "collision_check": ("swept", "endpoint"),
+    "texture": ("procedural", "table", "polynomial"),  # navbench.sim.texels.TEXTURE_MODES
 }
 #: Ranges of estimator options (TrackerConfig of ours/no-map, EmissionConfig of emission).
 OPTION_RANGES: dict[str, Any] = {

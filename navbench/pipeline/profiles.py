@@ -8,7 +8,7 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
     benchmark_version = "navbench-1"   (optional; default navbench.benchmark.BENCHMARK_VERSION)
     levels = ["house-1"]
     level_seed = 1
-    [views]       camera, count, seed, eval_count, eval_seed
+    [views]       camera, count, seed, eval_count, eval_seed, texture
     [fit]         steps, seed, and optionally any other FitConfig field
     [tasks]       count, seed, difficulty (NRNS names: count tasks of each; issue 15)
     [navigation]  estimators, noise, seeds, workers (0 = CPU count), map ("fit" or "true"),
@@ -93,6 +93,7 @@ class Profile:
     camera: str = "half"             # camera of views, simulator and estimators
     views: int = 1000                # training views per level
     views_seed: int = 0              # pose sampling seed of the training views
+    views_texture: str = "procedural"  # camera texture mode of the views (navbench.sim.texels)
     eval_views: int = 200            # held-out views for map quality
     eval_seed: int = 1               # pose sampling seed of the held-out views
     fit_steps: int = 200             # Adam steps of the map fit
@@ -146,6 +147,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "camera": ("[views] camera", lambda v: _check_str(v, CAMERA_NAMES)),
     "views": ("[views] count", _int(1, MAX_VIEWS).check),
     "views_seed": ("[views] seed", _SEED.check),
+    "views_texture": ("[views] texture", lambda v: _check_str(v, ("procedural", "table", "polynomial"))),
     "eval_views": ("[views] eval_count", _int(1, MAX_VIEWS).check),
     "eval_seed": ("[views] eval_seed", _SEED.check),
     "fit_steps": ("[fit] steps", _int(1, MAX_FIT_STEPS).check),
@@ -219,7 +221,7 @@ _SECTIONS: dict[str, dict[str, str]] = {
     "": {"name": "name", "description": "description", "levels": "levels", "level_seed": "level_seed",
          "benchmark_version": "benchmark_version"},
     "views": {"camera": "camera", "count": "views", "seed": "views_seed",
-              "eval_count": "eval_views", "eval_seed": "eval_seed"},
+              "eval_count": "eval_views", "eval_seed": "eval_seed", "texture": "views_texture"},
     "fit": {"steps": "fit_steps", "seed": "fit_seed"},
     "tasks": {"count": "tasks", "seed": "tasks_seed", "difficulty": "tasks_difficulty"},
     "navigation": {"estimators": "estimators", "noise": "noise", "seeds": "seeds",

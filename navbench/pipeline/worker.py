@@ -59,7 +59,8 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
         frames = uses_frames(c.estimator) or spec.online is not None
         sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
                         camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
-                        pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check)
+                        pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check,
+                        texture=ep_cfg.texture)
         est = None if spec.online is not None else make_estimator(
             c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT, renderer=None,
             seed=job.estimator_seed, **c.options)

@@ -178,13 +178,18 @@ UNRECORDED_CONDITIONS = "unrecorded"
 def conditions_label(episode_overrides: "dict | None") -> str:
     """The simulator conditions (:mod:`navbench.sim.conditions`) an episode config selects, every
     one named: ``"pose_quantisation=off, direction_limit=believed, collision_check=swept"``
-    (the defaults). ``episode_overrides``: EpisodeConfig field overrides as a run records them
+    (the defaults), and ``texture=...`` after them when the camera's texture mode is not
+    ``procedural``. ``episode_overrides``: EpisodeConfig field overrides as a run records them
     (``config["episode"]``); ``None`` (not recorded) gives :data:`UNRECORDED_CONDITIONS`."""
     from navbench.sim.conditions import episode_conditions
 
     if not isinstance(episode_overrides, dict):
         return UNRECORDED_CONDITIONS
-    return ", ".join(f"{k}={v}" for k, v in episode_conditions(episode_overrides).items())
+    label = ", ".join(f"{k}={v}" for k, v in episode_conditions(episode_overrides).items())
+    # the camera's texture mode (navbench.sim.texels) is named only off its default, so the
+    # labels of every run stored before it existed stay as they were
+    texture = episode_overrides.get("texture", "procedural")
+    return label if texture == "procedural" else f"{label}, texture={texture}"
 
 
 def with_conditions(frame: "pandas.DataFrame", runs: "pandas.DataFrame") -> "pandas.DataFrame":

@@ -44,6 +44,33 @@ def time_render(level: Level, intrinsics: Intrinsics, repeats: int = 50, warmup:
     return out
 
 
+def time_render_modes(level: Level, intrinsics: Intrinsics, modes=("procedural", "table"),
+                      repeats: int = 7, frames: int = 10, warmup: int = 2, seed: int = 0,
+                      parallel: bool | None = None, camera_height: float = CAMERA_HEIGHT,
+                      pixels=None) -> dict[str, list[float]]:
+    """Milliseconds per frame of each texture mode (:mod:`navbench.sim.texels`), interleaved:
+    each of ``repeats`` rounds renders the same ``frames`` free-space poses with every mode in
+    turn and records each mode's mean over them, so that a load spike hits all modes alike.
+    The tables are built (and every kernel compiled) before timing."""
+    from navbench.sim.camera import RaycastCamera
+
+    cams = {m: RaycastCamera(level, intrinsics, camera_height, parallel=parallel, texture=m) for m in modes}
+    poses = bench_poses(level, max(frames, 1), seed)
+    for cam in cams.values():
+        for k in range(warmup):
+            cam.render(poses[k % len(poses)], pixels)
+    out: dict[str, list[float]] = {m: [] for m in modes}
+    for r in range(repeats):
+        order = list(modes) if r % 2 == 0 else list(modes)[::-1]
+        for m in order:
+            cam = cams[m]
+            t0 = time.perf_counter()
+            for pose in poses:
+                cam.render(pose, pixels)
+            out[m].append(1000.0 * (time.perf_counter() - t0) / len(poses))
+    return out
+
+
 def time_step(level: Level, repeats: int = 1000, warmup: int = 10, noise="low", seed: int = 0) -> list[float]:
     """Milliseconds per :meth:`Simulator.step` (dynamics + collision, no rendering).
 

@@ -17,7 +17,9 @@ exit ``t_out``. Along row ``j`` (``y_c = (j - cy) / fy``) the 3D ray height is
 
 Colours are the level's view-independent textures (:func:`navbench.level.surface_colour`):
 side faces use ``u`` = distance along the entered edge from its first vertex and ``v = z``;
-floor, ceiling and prism tops use ``u = x``, ``v = y``. Pixels farther than ``max_range``
+floor, ceiling and prism tops use ``u = x``, ``v = y``. The camera's ``texture`` setting says how
+they are evaluated (per pixel, from texel tables, or with a polynomial sine; see
+:mod:`navbench.sim.texels`); the default is ``navbench-1``'s per-pixel procedural colour. Pixels farther than ``max_range``
 (z-depth) are invalid: depth ``+inf``, colour 0.
 
 :class:`RaycastCamera` renders with a compiled kernel (numba; one thread, or parallel over columns);
@@ -37,6 +39,8 @@ from numba import njit, prange
 
 from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE, Frame, Intrinsics
 from navbench.level import Level, prisms, surface_colour, texture_table
+from navbench.sim.texels import (DEFAULT_TEXTURE, check_texture, pattern_poly, surface_pattern, table_pattern,
+                                 texel_tables, texture_code)
 
 #: Images with at least this many pixels render in parallel by default (320 x 240).
 PARALLEL_MIN_PIXELS = 320 * 240
@@ -71,7 +75,7 @@ def _texel(t, u, v, kind, base, amp, waves):
 @njit(cache=True)
 def _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                    verts, start, pheight, ptex, floor_tex, ceil_tex,
-                   tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                   tkind, tbase, tamp, twaves, tmode, ttab, tin, tout, hedge, hprism, rgb, depth, valid,
                    rows, r0, r1):
     """Ray-cast rows ``rows[r0:r1]`` of image column ``i`` into ``rgb``, ``depth``, ``valid``
     (scratch: ``(W, P)`` arrays); every row gets the same numbers whichever others are cast."""
@@ -174,14 +178,35 @@ def _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
             kn = k + 1 if k + 1 < start[p + 1] else start[p]
             ex = verts[kn, 0] - verts[k, 0]
             ey = verts[kn, 1] - verts[k, 1]
+            t = ptex[p]
             u = ((px - verts[k, 0]) * ex + (py - verts[k, 1]) * ey) / math.sqrt(ex * ex + ey * ey)
-            r, g, b = _texel(ptex[p], u, cam_h - yc * best, tkind, tbase, tamp, twaves)
+            v = cam_h - yc * best
+            surf = 2 + P + k
         elif kind == _TOP:
-            r, g, b = _texel(ptex[hprism[i, bh]], px, py, tkind, tbase, tamp, twaves)
+            t = ptex[hprism[i, bh]]
+            u = px
+            v = py
+            surf = 2 + hprism[i, bh]
         elif kind == _FLOOR:
-            r, g, b = _texel(floor_tex, px, py, tkind, tbase, tamp, twaves)
+            t = floor_tex
+            u = px
+            v = py
+            surf = 0
         else:
-            r, g, b = _texel(ceil_tex, px, py, tkind, tbase, tamp, twaves)
+            t = ceil_tex
+            u = px
+            v = py
+            surf = 1
+        if tmode == 0:
+            r, g, b = _texel(t, u, v, tkind, tbase, tamp, twaves)
+        else:
+            if tmode == 1:
+                pat = table_pattern(surf, t, u, v, tkind, twaves, ttab[0], ttab[1], ttab[2], ttab[3])
+            else:
+                pat = pattern_poly(t, u, v, tkind, twaves)
+            r = min(max(tbase[t, 0] + tamp[t, 0] * pat, 0.0), 1.0)
+            g = min(max(tbase[t, 1] + tamp[t, 1] * pat, 0.0), 1.0)
+            b = min(max(tbase[t, 2] + tamp[t, 2] * pat, 0.0), 1.0)
         depth[j, i] = best
         valid[j, i] = True
         rgb[j, i, 0] = r
@@ -200,7 +225,7 @@ def _scratch(W, P):
 @njit(cache=True, parallel=True)
 def _render_parallel(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
                      verts, start, pheight, ptex, floor_tex, ceil_tex,
-                     tkind, tbase, tamp, twaves, rgb, depth, valid):
+                     tkind, tbase, tamp, twaves, tmode, ttab, rgb, depth, valid):
     """Fill ``rgb (H, W, 3) float32``, ``depth (H, W) float32``, ``valid (H, W) bool``; columns in parallel."""
     H, W = depth.shape
     all_rows = np.arange(H)
@@ -210,14 +235,14 @@ def _render_parallel(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     for i in prange(W):
         _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                        verts, start, pheight, ptex, floor_tex, ceil_tex,
-                       tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                       tkind, tbase, tamp, twaves, tmode, ttab, tin, tout, hedge, hprism, rgb, depth, valid,
                        all_rows, 0, H)
 
 
 @njit(cache=True)
 def _render_serial(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
                    verts, start, pheight, ptex, floor_tex, ceil_tex,
-                   tkind, tbase, tamp, twaves, rgb, depth, valid):
+                   tkind, tbase, tamp, twaves, tmode, ttab, rgb, depth, valid):
     """Same as :func:`_render_parallel` on one thread (small images, busy machines)."""
     H, W = depth.shape
     all_rows = np.arange(H)
@@ -227,14 +252,14 @@ def _render_serial(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
     for i in range(W):
         _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                        verts, start, pheight, ptex, floor_tex, ceil_tex,
-                       tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                       tkind, tbase, tamp, twaves, tmode, ttab, tin, tout, hedge, hprism, rgb, depth, valid,
                        all_rows, 0, H)
 
 
 @njit(cache=True)
 def _render_pixels(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
                    verts, start, pheight, ptex, floor_tex, ceil_tex,
-                   tkind, tbase, tamp, twaves, col_ptr, rows, rgb, depth, valid):
+                   tkind, tbase, tamp, twaves, tmode, ttab, col_ptr, rows, rgb, depth, valid):
     """Only rows ``rows[col_ptr[i]:col_ptr[i + 1]]`` of every column ``i`` (one thread); the other
     pixels are left as they are (:meth:`RaycastCamera.render` with ``pixels``)."""
     W = depth.shape[1]
@@ -245,7 +270,7 @@ def _render_pixels(ox, oy, theta, cam_h, level_h, fx, fy, cx, cy, max_range,
         if col_ptr[i] < col_ptr[i + 1]:
             _render_column(i, ox, oy, c, s, cam_h, level_h, fx, fy, cx, cy, max_range,
                            verts, start, pheight, ptex, floor_tex, ceil_tex,
-                           tkind, tbase, tamp, twaves, tin, tout, hedge, hprism, rgb, depth, valid,
+                           tkind, tbase, tamp, twaves, tmode, ttab, tin, tout, hedge, hprism, rgb, depth, valid,
                            rows, col_ptr[i], col_ptr[i + 1])
 
 
@@ -276,11 +301,18 @@ class RaycastCamera:
     :data:`PARALLEL_MIN_THREADS` numba threads: with two cores shared by other processes, the
     parallel region often waits a whole scheduler slice for a descheduled thread (measured median
     8 ms against 6.7 ms on one thread for 320 x 240 on a loaded 2-core machine).
+
+    ``texture``: how colours are evaluated (:mod:`navbench.sim.texels`): ``procedural`` (the
+    default, libm sines per pixel: every ``navbench-1`` image), ``table`` (texel tables looked
+    up bilinearly, built once per level) or ``polynomial``. Depth and validity are the same in
+    every mode.
     """
 
     def __init__(self, level: Level, intrinsics: Intrinsics, camera_height: float = CAMERA_HEIGHT,
-                 max_range: float = MAX_RANGE, parallel: bool | None = None):
+                 max_range: float = MAX_RANGE, parallel: bool | None = None,
+                 texture: str = DEFAULT_TEXTURE):
         self.level = level
+        self.texture = check_texture(texture, "RaycastCamera texture")
         if parallel is None:
             import numba
 
@@ -296,6 +328,11 @@ class RaycastCamera:
         self._height = np.ascontiguousarray(pr.height, dtype=np.float64)
         self._tex = np.ascontiguousarray(pr.texture, dtype=np.int64)
         self._tables = tuple(np.ascontiguousarray(a) for a in texture_table(level))
+        if self.texture == "table":
+            tb = texel_tables(level)
+            self._texels = (tb.origin, tb.shape, tb.values, 1.0 / tb.h)
+        else:
+            self._texels = (np.zeros((0, 2)), np.zeros((0, 3), np.int64), np.zeros(0), 1.0)
 
     def render(self, pose, pixels=None) -> Frame:
         """Render the view from planar ``pose``; a fresh :class:`Frame` each call.
@@ -314,7 +351,7 @@ class RaycastCamera:
                 float(intr.fx), float(intr.fy), float(intr.cx), float(intr.cy), self.max_range,
                 self._verts, self._start, self._height, self._tex,
                 int(self.level.floor_texture), int(self.level.ceiling_texture),
-                kind, base, amp, waves)
+                kind, base, amp, waves, texture_code(self.texture), self._texels)
         if pixels is not None:
             col_ptr, rows = self._columns(pixels)
             rgb = np.full((H, W, 3), np.nan, np.float32)
@@ -343,12 +380,14 @@ class RaycastCamera:
 # ------------------------------------------------------------------------------ reference
 
 def render_reference(level: Level, intrinsics: Intrinsics, pose, camera_height: float = CAMERA_HEIGHT,
-                     max_range: float = MAX_RANGE) -> Frame:
+                     max_range: float = MAX_RANGE, texture: str = DEFAULT_TEXTURE) -> Frame:
     """Slow pure-numpy renderer with the same semantics as :class:`RaycastCamera` (for tests).
 
     Vectorised over pixels, looping over prisms; colours come from
-    :func:`navbench.level.surface_colour` itself.
+    :func:`navbench.level.surface_colour` itself (``texture="procedural"``) or from the
+    same texel tables or polynomial sine as the camera's (:func:`navbench.sim.texels.surface_pattern`).
     """
+    check_texture(texture, "render_reference texture")
     intr = intrinsics
     H, W = intr.height, intr.width
     x, y, th = (float(v) for v in pose)
@@ -371,6 +410,7 @@ def render_reference(level: Level, intrinsics: Intrinsics, pose, camera_height: 
     which = np.full((H, W), -1, np.int64)  # prism index
     edge_a = np.zeros((H, W, 2))
     edge_dir = np.zeros((H, W, 2))
+    edge_k = np.zeros((H, W), np.int64)  # global index of the entered edge
 
     pr = prisms(level)
     for p in range(len(pr)):
@@ -406,6 +446,7 @@ def render_reference(level: Level, intrinsics: Intrinsics, pose, camera_height: 
         ed = e[e_in]
         edge_a = np.where(better[..., None], ea[None], edge_a)
         edge_dir = np.where(better[..., None], ed[None], edge_dir)
+        edge_k = np.where(better, pr.start[p] + e_in[None, :], edge_k)
 
     invalid = (kind == _NONE) | (best > max_range)
     tt = np.where(invalid, 0.0, best)
@@ -413,21 +454,31 @@ def render_reference(level: Level, intrinsics: Intrinsics, pose, camera_height: 
     py = y + tt * d[None, :, 1]
     pz = camera_height - YC * tt
     rgb = np.zeros((H, W, 3))
+    P = len(pr)
     tex_of = {_FLOOR: level.floor_texture, _CEIL: level.ceiling_texture}
+
+    def colour(m, t, surf, u, v):
+        if texture == "procedural":
+            rgb[m] = surface_colour(level.textures[t], u, v)
+            return
+        pat = surface_pattern(level, texture, surf, np.full(len(u), t), u, v)
+        tex = level.textures[t]
+        rgb[m] = np.clip(np.asarray(tex.base) + np.asarray(tex.amp) * pat[:, None], 0.0, 1.0)
+
     for k in (_FLOOR, _CEIL):
         m = (kind == k) & ~invalid
         if m.any():
-            rgb[m] = surface_colour(level.textures[tex_of[k]], px[m], py[m])
-    for p in range(len(pr)):
-        tex = level.textures[pr.texture[p]]
+            colour(m, tex_of[k], np.full(int(m.sum()), 0 if k == _FLOOR else 1), px[m], py[m])
+    for p in range(P):
+        t = int(pr.texture[p])
         m = (kind == _TOP) & (which == p) & ~invalid
         if m.any():
-            rgb[m] = surface_colour(tex, px[m], py[m])
+            colour(m, t, np.full(int(m.sum()), 2 + p), px[m], py[m])
         m = (kind == _SIDE) & (which == p) & ~invalid
         if m.any():
             ed = edge_dir[m]
             u = ((px[m] - edge_a[m][:, 0]) * ed[:, 0] + (py[m] - edge_a[m][:, 1]) * ed[:, 1]) \
                 / np.linalg.norm(ed, axis=1)
-            rgb[m] = surface_colour(tex, u, pz[m])
+            colour(m, t, 2 + P + edge_k[m], u, pz[m])
     depth = np.where(invalid, np.inf, best).astype(np.float32)
     return Frame(rgb.astype(np.float32), depth, ~invalid)

@@ -76,7 +76,8 @@ CONDITIONS: dict[str, Condition] = {c.name: c for c in (
 )}
 
 #: Values of the new EpisodeConfig fields that leave the episode key as it was before they existed.
-KEY_NEUTRAL_FIELDS: dict[str, Any] = {"pose_quantisation": "off", "collision_check": "swept"}
+KEY_NEUTRAL_FIELDS: dict[str, Any] = {"pose_quantisation": "off", "collision_check": "swept",
+                                      "texture": "procedural"}
 
 
 def check_condition(name: Any, value: Any, where: str) -> str:

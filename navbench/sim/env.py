@@ -74,7 +74,7 @@ class PointNavEnv(gym.Env):
     def __init__(self, level: Level, noise="low", intrinsics: Intrinsics | None = HALF_CAMERA,
                  max_steps: int = 500, seed: int | None = None, tasks=None,
                  camera_height: float = CAMERA_HEIGHT, max_range: float = MAX_RANGE,
-                 render_mode: str | None = None):
+                 render_mode: str | None = None, texture: str = "procedural"):
         if max_steps < 1:
             raise TaskError(f"max_steps must be >= 1, got {max_steps}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -86,7 +86,8 @@ class PointNavEnv(gym.Env):
         self.tasks = [_task_parts(t) for t in tasks] if tasks is not None else None
         if self.tasks is not None and not self.tasks:
             raise TaskError("tasks is empty")
-        self.sim = Simulator(level, noise=noise, seed=0, intrinsics=intrinsics, camera_height=camera_height)
+        self.sim = Simulator(level, noise=noise, seed=0, intrinsics=intrinsics, camera_height=camera_height,
+                             texture=texture)  # the camera's texture mode (navbench.sim.texels)
         if self.sim.camera is not None:
             self.sim.camera.max_range = self.max_range
         self._init_seed = seed

@@ -29,6 +29,7 @@ from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, HALF_CAMERA, Frame, I
 from navbench.level import Level, distance_to_solids, prisms
 from navbench.sim.conditions import check_condition, quantise_pose
 from navbench.sim.dynamics import Control, apply_dynamics, as_control, clip_control, draw_noise, resolve_noise
+from navbench.sim.texels import check_texture
 
 #: Distance (m) a blocked move is backed off from the exact contact point.
 CONTACT_EPS = 1e-6
@@ -133,12 +134,15 @@ class Simulator:
     from then on, and a quantised position whose disc overlaps a solid counts as a collision.
     ``collision_check="endpoint"`` replaces the swept disc by appendix D's check at the end of
     the move: the agent is teleported there and has collided when its disc overlaps a solid.
+
+    ``texture``: how the camera evaluates colours (:mod:`navbench.sim.texels`; ``procedural``,
+    the default, is every ``navbench-1`` image).
     """
 
     def __init__(self, level: Level, noise="none", seed: int = 0,
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
                  enforce_direction_limit: bool = False, pose_quantisation: str = "off",
-                 collision_check: str = "swept"):
+                 collision_check: str = "swept", texture: str = "procedural"):
         self.level = level
         self.enforce_direction_limit = bool(enforce_direction_limit)
         self.pose_quantisation = check_condition("pose_quantisation", pose_quantisation, "Simulator")
@@ -151,10 +155,11 @@ class Simulator:
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
         self.camera = None
+        self.texture = check_texture(texture, "Simulator texture")
         if intrinsics is not None:
             from navbench.sim.camera import RaycastCamera
 
-            self.camera = RaycastCamera(level, intrinsics, camera_height)
+            self.camera = RaycastCamera(level, intrinsics, camera_height, texture=texture)
         self.pose = np.zeros(3)
         self.collided = False
         self.collision_step = -1

@@ -256,12 +256,13 @@ def sample_free_poses(level, count: int, rng: np.random.Generator, clearance: fl
 def collect_views(level, count: int, intrinsics: Intrinsics, seed: int,
                   progress: Callable[[int, int], None] | None = None,
                   camera_height: float = CAMERA_HEIGHT, clearance: float = AGENT_RADIUS + 0.05,
-                  renderer: Callable | None = None) -> Views:
+                  renderer: Callable | None = None, texture: str = "procedural") -> Views:
     """Sample ``count`` views uniformly in ``level``'s free space and render them exactly.
 
     Poses: :func:`sample_free_poses` with ``numpy.random.default_rng(seed)`` and ``clearance``
     (m, default agent radius + 5 cm). Images: ``renderer(pose) -> Frame``, by default
-    :class:`navbench.sim.camera.RaycastCamera`. ``progress(done, total)`` is called every 50
+    :class:`navbench.sim.camera.RaycastCamera` with texture mode ``texture``
+    (:mod:`navbench.sim.texels`). ``progress(done, total)`` is called every 50
     views. RGB is stored as uint8 (``round(255 rgb)``), depth float32. ``count`` views that do
     not fit in the available memory are refused (:func:`check_views_memory`) before anything
     is sampled or allocated.
@@ -275,7 +276,7 @@ def collect_views(level, count: int, intrinsics: Intrinsics, seed: int,
     if renderer is None:
         from navbench.sim.camera import RaycastCamera
 
-        renderer = RaycastCamera(level, intrinsics, camera_height).render
+        renderer = RaycastCamera(level, intrinsics, camera_height, texture=texture).render
     H, W = intrinsics.shape
     rgb = np.empty((count, H, W, 3), np.uint8)
     depth = np.empty((count, H, W), np.float32)

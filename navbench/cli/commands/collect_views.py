@@ -16,7 +16,7 @@ def _collect(level: str, count: int | None, camera: str | None, seed: int | None
 
     prof = load_profile_with(profile, sets, camera=camera)
     cfg = ViewsConfig(count if count is not None else prof.views, prof.camera,
-                      seed if seed is not None else prof.views_seed)
+                      seed if seed is not None else prof.views_seed, prof.views_texture)
     # refuse a collection that cannot fit in memory before the level or anything else is written
     cfg.check_memory("--count" if count is not None else f"profile {prof.name}: [views] count")
     with PipelineUI() as ui:

@@ -108,7 +108,11 @@ def build_episode_config(overrides: dict):
             except TypeError as e:
                 raise ConfigError(f"invalid episode config {k}: {e}") from None
         kw[k] = v
-    return dataclasses.replace(base, **kw)
+    out = dataclasses.replace(base, **kw)
+    from navbench.sim.texels import check_texture
+
+    check_texture(out.texture, "episode config texture")  # before any worker starts
+    return out
 
 
 def resolved_episode_config(cfg: NavigationConfig) -> dict:

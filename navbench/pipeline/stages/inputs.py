@@ -95,6 +95,8 @@ def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str |
         camera = man.get("config", {}).get("camera", camera)
         views = Ref(stage, key, p / VIEWS_FILE, True, level.name)
     else:
-        views = collect_views_stage(ctx, level, ViewsConfig(profile.views, camera, profile.views_seed))
-    held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed))
+        views = collect_views_stage(ctx, level, ViewsConfig(profile.views, camera, profile.views_seed,
+                                                            profile.views_texture))
+    held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed,
+                                                       profile.views_texture))
     return fit_map_stage(ctx, level, views, held, cfg)

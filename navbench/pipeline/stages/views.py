@@ -16,11 +16,14 @@ from navbench.pipeline.stages.level import load_level_ref
 @dataclass(frozen=True)
 class ViewsConfig:
     """collect-views: ``count`` pose-labelled RGB-D views sampled uniformly in free space with
-    ``camera`` (``half``: 160x120, ``paper``: 320x240) from pose sampling ``seed``."""
+    ``camera`` (``half``: 160x120, ``paper``: 320x240) from pose sampling ``seed``; ``texture``:
+    the camera's texture mode (:mod:`navbench.sim.texels`), left out of the key at its default
+    ``procedural`` (:func:`views_key_config`), so the views stored before it existed keep their keys."""
 
     count: int
     camera: str = "half"
     seed: int = 0
+    texture: str = "procedural"
 
     def __post_init__(self):
         if isinstance(self.count, bool) or not isinstance(self.count, int) or self.count < 1:
@@ -29,6 +32,9 @@ class ViewsConfig:
             raise ConfigError(f"unknown camera {self.camera!r}; choose {' or '.join(CAMERA_NAMES)}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ConfigError(f"views seed must be a whole number >= 0, got {self.seed!r}")
+        from navbench.sim.texels import check_texture
+
+        check_texture(self.texture, "views texture")
 
     def check_memory(self, what: str = "collect-views") -> None:
         """Refuse (ConfigError naming ``what``) a collection whose images do not fit in the
@@ -37,6 +43,17 @@ class ViewsConfig:
         from navbench.worldmodel.views import check_views_memory
 
         check_views_memory(self.count, camera_by_name(self.camera), what)
+
+
+def views_key_config(cfg: ViewsConfig) -> dict:
+    """What the collect-views key hashes: the config's fields, ``texture`` only when it is not
+    the default ``procedural`` (the keys of views stored before the setting existed stay valid)."""
+    from navbench.config import to_jsonable
+
+    out = to_jsonable(cfg)
+    if out.get("texture") == "procedural":
+        del out["texture"]
+    return out
 
 
 def collect_views_stage(ctx: StageContext, level: Ref, cfg: ViewsConfig) -> Ref:
@@ -53,8 +70,8 @@ def collect_views_stage(ctx: StageContext, level: Ref, cfg: ViewsConfig) -> Ref:
         check_views_disk(cfg.count, camera_by_name(cfg.camera), d, f"collect-views ({level.name})")
         update = ctx.progress(f"views {level.name} (seed {cfg.seed})", cfg.count)
         views = collect_views(load_level_ref(level), cfg.count, camera_by_name(cfg.camera), cfg.seed,
-                              progress=update)
+                              progress=update, texture=cfg.texture)
         save_views(views, d / VIEWS_FILE, compress=True)  # depth and valid losslessly compressed
 
-    path, key, cached = ctx.run("collect-views", cfg, {"level": level.key}, compute)
+    path, key, cached = ctx.run("collect-views", views_key_config(cfg), {"level": level.key}, compute)
     return Ref("collect-views", key, path / VIEWS_FILE, cached, level.name)
