@@ -382,12 +382,13 @@ def override(profile: Profile, **changes: Any) -> Profile:
 
 @functools.lru_cache(maxsize=1)
 def _bundled_docs() -> tuple[tuple[str, dict], ...]:
-    """``(name, parsed TOML)`` of every readable bundled profile, parsed once per process."""
+    """``(name, parsed TOML)`` of every readable bundled profile with its ``extends`` resolved
+    (:func:`profile_document`), parsed once per process."""
     docs = []
     for name in available_profiles():
         try:
-            docs.append((name, tomllib.loads((PROFILES_DIR / f"{name}.toml").read_text(encoding="utf-8"))))
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            docs.append((name, profile_document(PROFILES_DIR / f"{name}.toml")))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, ConfigError):
             continue
     return tuple(docs)
 
