@@ -124,7 +124,7 @@ def _initial_state(param: str, pred: np.ndarray, camera_height: float):
 
 def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
                idx: np.ndarray, camera_height: float = CAMERA_HEIGHT,
-               obs: Observation | None = None) -> np.ndarray:
+               obs: Observation | None = None, info: dict | None = None) -> np.ndarray:
     """The planar start pose for the local optimiser: the best heading around the prediction.
 
     Scores ``pred`` with its heading offset by ``k * yaw_search_step_deg`` (``|offset| <=
@@ -133,6 +133,11 @@ def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
     skipped. Returns ``pred`` itself when the search is disabled or no candidate qualifies.
     ``obs``: ``sample_observation(frame, ref.observed, idx)`` when the caller has it (its first
     ``yaw_search_pixels`` rows are the same numbers as sampling those pixels again).
+    With ``yaw_search_gate > 0`` the prediction is scored first, and the search runs only when
+    its score is above the gate (or it keeps too few pixels to be scored); the same candidates
+    and the same choice as the ungated search when it runs. ``info`` (optional dict) gets
+    ``"yaw_score"`` (the prediction's score, NaN if not scored), ``"yaw_searched"`` and, when it
+    searched, ``"yaw_offset_deg"`` (the start's heading minus the prediction's).
     """
     pred = np.asarray(pred, dtype=np.float64)
     if cfg.yaw_search_deg <= 0 or cfg.yaw_search_step_deg <= 0:
@@ -153,13 +158,32 @@ def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
         cands.append(cand)
         lins.append(linearization(cfg.param, _initial_state(cfg.param, cand, camera_height),
                                   ref.T_wc, camera_height, Ti))
-    values, counts = accumulate_values(ref, obs, lins, cfg)  # = accumulate() per candidate
+    if cfg.yaw_search_gate > 0:  # the prediction's score first (candidate k = 0)
+        v0, c0 = accumulate_values(ref, obs, lins[n_half:n_half + 1], cfg)
+        kept0 = int(c0[0, 0])
+        score = float(v0[0]) / kept0 if kept0 >= 0.3 * len(sub) else math.nan
+        if info is not None:
+            info["yaw_score"] = score
+        if score <= cfg.yaw_search_gate:  # NaN (too few pixels to tell) searches
+            if info is not None:
+                info["yaw_searched"] = False
+            return pred.copy()
+        rest = lins[:n_half] + lins[n_half + 1:]
+        vr, cr = accumulate_values(ref, obs, rest, cfg)
+        values = np.concatenate([vr[:n_half], v0, vr[n_half:]])
+        counts = np.concatenate([cr[:n_half], c0, cr[n_half:]])
+    else:
+        values, counts = accumulate_values(ref, obs, lins, cfg)  # = accumulate() per candidate
+    if info is not None:
+        info["yaw_searched"] = True
     for cand, value, kept in zip(cands, values.tolist(), counts[:, 0].tolist()):
         if kept < 0.3 * len(sub):
             continue
         cost = value / kept
         if cost < best_cost:
             best, best_cost = cand, cost
+    if info is not None:
+        info["yaw_offset_deg"] = math.degrees(float(best[2] - pred[2]))
     return best
 
 
@@ -194,7 +218,8 @@ def align_adam(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
 
 
 def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
-                       idx: np.ndarray, camera_height: float = CAMERA_HEIGHT) -> np.ndarray:
+                       idx: np.ndarray, camera_height: float = CAMERA_HEIGHT,
+                       info: dict | None = None) -> np.ndarray:
     """Minimise eq. 7 by iteratively reweighted Gauss-Newton on the pixels ``idx``; planar pose out.
 
     Each iteration linearises the residuals, weights L1 residuals by ``1 / max(|r|, eps)`` (zero
@@ -203,17 +228,23 @@ def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: Trac
     The first ``gn_geo_iters`` iterations use the point-to-plane term only: projective ICP has
     a much wider basin of convergence than the photometric term (whose linearisation only
     sees the texture within a pixel or two), so it brings a rotation error of several degrees
-    within reach; the remaining iterations minimise the full eq. 7.
+    within reach; the remaining iterations minimise the full eq. 7. With ``gn_geo_tol`` above 0
+    the point-to-plane phase ends at the first step below it (those iterations it saves are
+    not run at all: ``gn_iters`` still bounds the whole). ``info`` (optional dict) gets
+    ``"gn_iters"`` (iterations run) and the heading search's entries (:func:`yaw_search`).
     """
     param = cfg.param
     obs = sample_observation(frame, ref.observed, idx)
-    start = yaw_search(ref, frame, pred, cfg, idx, camera_height, obs)
+    start = yaw_search(ref, frame, pred, cfg, idx, camera_height, obs, info)
     state = _initial_state(param, start, camera_height)
     scale = cfg.pixel_scale / max(len(idx), 1)
     ntr = 2 if param == "planar" else 3
     Ti = se3_inverse(ref.T_wc)
-    for it in range(cfg.gn_iters):
-        geo_only = it < cfg.gn_geo_iters
+    geo_iters, geo_tol, tol = cfg.gn_geo_iters, cfg.gn_geo_tol, cfg.gn_tol
+    it = 0
+    while it < cfg.gn_iters:
+        geo_only = it < geo_iters
+        it += 1
         Trel, B, b = linearization(param, state, ref.T_wc, camera_height, Ti)
         acc = accumulate(ref, obs, Trel, B, b, cfg, photometric=not geo_only)
         _, pg, pH = prior_terms(param, state, pred, cfg, camera_height)
@@ -222,9 +253,14 @@ def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: Trac
         except np.linalg.LinAlgError:
             break
         state = retract(param, state, delta)
-        if (not geo_only and np.abs(delta[:ntr]).max() < cfg.gn_tol[0]
-                and np.abs(delta[ntr:]).max() < cfg.gn_tol[1]):
+        small_tr, small_rot = np.abs(delta[:ntr]).max(), np.abs(delta[ntr:]).max()
+        if geo_only:
+            if small_tr < geo_tol[0] and small_rot < geo_tol[1]:  # converged: the full eq. 7 next
+                geo_iters = it
+        elif small_tr < tol[0] and small_rot < tol[1]:
             break
+    if info is not None:
+        info["gn_iters"] = it
     return to_planar(param, state)
 
 
@@ -243,15 +279,16 @@ def _gn_pixels(height: int, width: int, count: int, seed: int) -> np.ndarray:
 
 
 def align(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
-          seed: int = 0, camera_height: float = CAMERA_HEIGHT) -> np.ndarray:
-    """Eq. 7 minimised by the configured optimiser; returns the planar pose ``(3,)``."""
+          seed: int = 0, camera_height: float = CAMERA_HEIGHT, info: dict | None = None) -> np.ndarray:
+    """Eq. 7 minimised by the configured optimiser; returns the planar pose ``(3,)``.
+    ``info``: filled by Gauss-Newton (:func:`align_gauss_newton`)."""
     H, W = ref.observed.shape
     pred = np.asarray(pred, dtype=np.float64)
     if cfg.optimizer == "adam":
         table = pixel_table(H, W, 100, cfg.adam_pixels, seed)
         return align_adam(ref, frame, pred, cfg, table, camera_height)
     return align_gauss_newton(ref, frame, pred, cfg, gn_pixels(H, W, cfg.gn_pixels, seed),
-                              camera_height)
+                              camera_height, info)
 
 
 # ------------------------------------------------------------------------------ estimators
@@ -311,6 +348,8 @@ class _PredictionToObservation:
         self.last_timing: dict[str, float] = {}
         # with option health or recover: {"inliers": float, "alarm": bool, "relocalized": bool}
         self.last_health: dict | None = None
+        # the last update's optimiser counts: "gn_iters", "yaw_searched", "yaw_score" (align)
+        self.last_info: dict = {}
         self._ref: Reference | None = None
         self._ref_pose: np.ndarray | None = None
         self._prev_frame: Frame | None = None
@@ -391,7 +430,8 @@ class _PredictionToObservation:
         t1 = time.perf_counter()
         lazy_s = ref.lazy.seconds if ref.lazy is not None else 0.0
         pred = np.asarray(predict_pose(self.pose, control), dtype=np.float64)
-        est = align(ref, frame, pred, self.config, self.seed, self.camera_height)
+        self.last_info = {}
+        est = align(ref, frame, pred, self.config, self.seed, self.camera_height, self.last_info)
         t2 = time.perf_counter()
         extra: dict[str, float] = {}
         if self.config.health or self.config.recover:
