@@ -156,3 +156,41 @@ def test_a_gate_that_always_opens_gives_the_ungated_search():
 def test_negative_tolerances_are_refused(opts):
     with pytest.raises(TrackingError):
         ours.make_config(opts)
+
+
+def test_the_turn_rule_searches_after_a_turn_and_not_after_a_straight_step():
+    """yaw_search_turn_deg: the controller turns in place (>= 5 deg) or steps straight, and the
+    dynamics' heading noise acts only on a turn; a straight step starts from the prediction."""
+    from navbench.sim.dynamics import Control
+
+    ref, _, idx = _problem()
+    frame = render_box(Z0 + np.array([0.0, 0.0, math.radians(8.0)]))
+    cfg = ours.make_config({"yaw_search_turn_deg": 1.0})
+    for turn, searched in ((math.radians(0.5), False), (math.radians(-5.0), True), (None, True)):
+        info = {}
+        start = ours.yaw_search(ref, frame, Z0, cfg, idx, info=info, turn=turn)
+        assert info["yaw_searched"] is searched
+        if searched:
+            assert math.degrees(start[2] - Z0[2]) == pytest.approx(8.0, abs=1e-9)
+        else:
+            np.testing.assert_array_equal(start, Z0)
+    # through the estimator: the predicted turn is the control's
+    est = ours.PredictionToObservationTracker(renderer=render_box, intrinsics=HALF_CAMERA,
+                                              yaw_search_turn_deg=1.0)
+    est.reset(Z0, render_box(Z0))
+    est.update(Control(0.0, 0.3, 0.1), render_box(Z0 + np.array([0.1 * math.cos(0.3), 0.1 * math.sin(0.3), 0.0])))
+    assert est.last_info["yaw_searched"] is False
+    est.update(Control(math.radians(6.0), 0.3, 0.0), render_box(est.pose + np.array([0.0, 0.0, math.radians(6.0)])))
+    assert est.last_info["yaw_searched"] is True
+
+
+def test_the_turn_rule_with_the_residual_gate_scores_only_the_straight_steps():
+    ref, _, idx = _problem()
+    frame = render_box(Z0 + np.array([0.0, 0.0, math.radians(8.0)]))
+    cfg = ours.make_config({"yaw_search_turn_deg": 1.0, "yaw_search_gate": 1e-12})
+    info = {}
+    ours.yaw_search(ref, frame, Z0, cfg, idx, info=info, turn=0.0)  # straight: the residual decides
+    assert info["yaw_searched"] is True and info["yaw_score"] > 1e-12
+    info = {}
+    ours.yaw_search(ref, frame, Z0, cfg, idx, info=info, turn=math.radians(6.0))  # a turn: no score needed
+    assert info["yaw_searched"] is True and "yaw_score" not in info

@@ -73,7 +73,8 @@ def diag(args) -> int:
     tasks = sample_tasks(level, args.tasks, 123)
     intr = CAMERAS[args.camera]
     for name in args.estimators.split(","):
-        rows = []  # (noise, gn_iters, yaw_score, |pred heading error| deg, |offset| deg)
+        rows = []  # (gn_iters, yaw_score, |pred heading error| deg, |offset| deg)
+        steps = []  # per update: the Gauss-Newton steps (largest translation m, rotation rad)
 
         def hook(est, rows=rows):
             update = est.update
@@ -85,6 +86,7 @@ def diag(args) -> int:
                 err = abs(math.degrees(wrap_angle(float(pred[2]) - float(true_pose[2]))))
                 rows.append((i.get("gn_iters", -1), i.get("yaw_score", math.nan), err,
                              abs(i.get("yaw_offset_deg", 0.0))))
+                steps.append(i.get("gn_steps", []))
                 return out
 
             est.update = wrapped
@@ -101,6 +103,23 @@ def diag(args) -> int:
         ok = np.isfinite(score)
         print(f"   score: unscored {np.mean(~ok):.3f}; quantiles 10/25/50/75/90: "
               + " ".join(f"{np.percentile(score[ok], q):.4f}" for q in (10, 25, 50, 75, 90)))
+        full = np.array([st for st in steps if len(st) == 10])  # (n, 10, 2)
+        for k in range(full.shape[1]):
+            print(f"   GN iteration {k + 1}: step median {np.median(full[:, k, 0]) * 1e3:.4f} mm "
+                  f"{math.degrees(np.median(full[:, k, 1])):.5f} deg, p90 {np.percentile(full[:, k, 0], 90) * 1e3:.4f} mm "
+                  f"{math.degrees(np.percentile(full[:, k, 1], 90)):.5f} deg")
+        for tol in args.tols:
+            for lo, hi, what in ((0, 5, "point-to-plane"), (5, 10, "full")):
+                ph = full[:, lo:hi]
+                below = (ph[..., 0] < tol) & (ph[..., 1] < tol)
+                first = np.where(below.any(axis=1), below.argmax(axis=1), hi - lo - 1)
+                saved = (hi - lo - 1 - first).mean()
+                rest = np.array([ph[n, first[n] + 1:].sum(axis=0) for n in range(len(ph))])
+                print(f"   tol {tol:g} ({what} phase): saves {saved:.2f} of {hi - lo} iterations; "
+                      f"the skipped steps sum to (p50/p99/max) {np.median(rest[:, 0]) * 1e3:.3f}/"
+                      f"{np.percentile(rest[:, 0], 99) * 1e3:.3f}/{rest[:, 0].max() * 1e3:.3f} mm, "
+                      f"{math.degrees(np.median(rest[:, 1])):.4f}/{math.degrees(np.percentile(rest[:, 1], 99)):.4f}/"
+                      f"{math.degrees(rest[:, 1].max()):.4f} deg")
         for gate in args.gates:
             skip = ok & (score <= gate)
             print(f"   gate {gate:.3f}: skips {skip.mean():.3f} of the searches; among skipped: "
@@ -175,6 +194,7 @@ def main() -> int:
     ap.add_argument("--camera", default="half")
     ap.add_argument("--estimators", default="ours,no-map")
     ap.add_argument("--gates", type=float, nargs="*", default=[0.02, 0.05, 0.1, 0.15, 0.2, 0.3])
+    ap.add_argument("--tols", type=float, nargs="*", default=[1e-5, 3e-5, 1e-4, 3e-4, 1e-3])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--variants", default='{"off": {}}')
     ap.add_argument("--base", default="")
