@@ -1,7 +1,7 @@
 """Tracking that stops when it has converged (issue 36): diagnostics and an in-process A/B.
 
-    python docs/data/tracking/converge_ab.py diag LEVEL MAP --tasks 10 --noise mid,high --camera half
-    python docs/data/tracking/converge_ab.py speed LEVEL MAP --tasks 3 --repeats 5 --camera paper \
+    python docs/data/speed/converge_ab.py diag LEVEL MAP --tasks 10 --noise mid,high --camera half
+    python docs/data/speed/converge_ab.py speed LEVEL MAP --tasks 3 --repeats 5 --camera paper \
         --variants '{"off": {}, "on": {"gn_geo_tol": [1e-4, 1e-4]}}' [--estimators ours,no-map] \
         [--base '{"ours": {"reference_scale": 0.5}}']
 
