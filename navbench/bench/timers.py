@@ -364,14 +364,17 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
     from navbench.nav.episode import EpisodeConfig, run_episode
     from navbench.plan.astar import make_planner_map
     from navbench.sim.world import Simulator
-    from navbench.track.registry import make_estimator
+    from navbench.track.registry import make_estimator, uses_frames
 
     occ2d, xs, ys = vmap.occupancy_slice("band")
     pm = make_planner_map(occ2d, xs, ys)
     tasks = bench_tasks(level, vmap, 64, seed)
 
+    # as the pipeline's workers: no camera for an estimator that reads no frame
+    cam = intrinsics if uses_frames(estimator) else None
+
     def episode(task, max_steps: int, ep_seed: int) -> np.ndarray:
-        sim = Simulator(level, noise=noise, seed=ep_seed, intrinsics=intrinsics, camera_height=CAMERA_HEIGHT)
+        sim = Simulator(level, noise=noise, seed=ep_seed, intrinsics=cam, camera_height=CAMERA_HEIGHT)
         est = make_estimator(estimator, vmap=vmap, intrinsics=intrinsics, camera_height=CAMERA_HEIGHT,
                              seed=ep_seed, **(options or {}))
         cfg = replace(EpisodeConfig(), max_steps=max_steps)

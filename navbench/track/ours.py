@@ -80,12 +80,11 @@ from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics, cam
 from navbench.track.odometry import predict_pose
 from navbench.track.base import check_update
 from navbench.track.lie import se3_inverse
+from navbench.track.heading import _initial_state, yaw_search  # noqa: F401  (yaw_search re-exported)
 from navbench.track.eq7 import (
-    Observation,
     Reference,
     TrackerConfig,
     accumulate,
-    accumulate_values,
     linearization,
     make_config,
     pixel_table,
@@ -116,51 +115,6 @@ def _param_lr(param: str, lr: tuple[float, float]) -> np.ndarray:
     if param == "planar":
         return np.array([lr[0], lr[0], lr[1]])
     return np.array([lr[0]] * 3 + [lr[1]] * 3)
-
-
-def _initial_state(param: str, pred: np.ndarray, camera_height: float):
-    return pred.copy() if param == "planar" else camera_pose(pred, camera_height)
-
-
-def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
-               idx: np.ndarray, camera_height: float = CAMERA_HEIGHT,
-               obs: Observation | None = None) -> np.ndarray:
-    """The planar start pose for the local optimiser: the best heading around the prediction.
-
-    Scores ``pred`` with its heading offset by ``k * yaw_search_step_deg`` (``|offset| <=
-    yaw_search_deg``) by the mean kept data term of eq. 7 per kept photometric pixel on the first
-    ``yaw_search_pixels`` of ``idx``; candidates that keep fewer than 30 % of those pixels are
-    skipped. Returns ``pred`` itself when the search is disabled or no candidate qualifies.
-    ``obs``: ``sample_observation(frame, ref.observed, idx)`` when the caller has it (its first
-    ``yaw_search_pixels`` rows are the same numbers as sampling those pixels again).
-    """
-    pred = np.asarray(pred, dtype=np.float64)
-    if cfg.yaw_search_deg <= 0 or cfg.yaw_search_step_deg <= 0:
-        return pred.copy()
-    sub = idx[: cfg.yaw_search_pixels]
-    if obs is None:
-        obs = sample_observation(frame, ref.observed, sub)
-    else:
-        n = len(sub)
-        obs = Observation(obs.points[:n], obs.rgb[:n], obs.ok[:n])
-    n_half = int(math.floor(cfg.yaw_search_deg / cfg.yaw_search_step_deg + 1e-9))
-    best, best_cost = pred.copy(), np.inf
-    Ti = se3_inverse(ref.T_wc)
-    cands, lins = [], []
-    for k in range(-n_half, n_half + 1):
-        cand = pred.copy()
-        cand[2] += math.radians(k * cfg.yaw_search_step_deg)
-        cands.append(cand)
-        lins.append(linearization(cfg.param, _initial_state(cfg.param, cand, camera_height),
-                                  ref.T_wc, camera_height, Ti))
-    values, counts = accumulate_values(ref, obs, lins, cfg)  # = accumulate() per candidate
-    for cand, value, kept in zip(cands, values.tolist(), counts[:, 0].tolist()):
-        if kept < 0.3 * len(sub):
-            continue
-        cost = value / kept
-        if cost < best_cost:
-            best, best_cost = cand, cost
-    return best
 
 
 def align_adam(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
@@ -194,7 +148,8 @@ def align_adam(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
 
 
 def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
-                       idx: np.ndarray, camera_height: float = CAMERA_HEIGHT) -> np.ndarray:
+                       idx: np.ndarray, camera_height: float = CAMERA_HEIGHT,
+                       info: dict | None = None, turn: float | None = None) -> np.ndarray:
     """Minimise eq. 7 by iteratively reweighted Gauss-Newton on the pixels ``idx``; planar pose out.
 
     Each iteration linearises the residuals, weights L1 residuals by ``1 / max(|r|, eps)`` (zero
@@ -203,28 +158,45 @@ def align_gauss_newton(ref: Reference, frame: Frame, pred: np.ndarray, cfg: Trac
     The first ``gn_geo_iters`` iterations use the point-to-plane term only: projective ICP has
     a much wider basin of convergence than the photometric term (whose linearisation only
     sees the texture within a pixel or two), so it brings a rotation error of several degrees
-    within reach; the remaining iterations minimise the full eq. 7.
+    within reach; the remaining iterations minimise the full eq. 7. With ``gn_geo_tol`` above 0
+    the point-to-plane phase ends at the first step below it (the iterations it saves are not
+    run: the full eq. 7 keeps its own ``gn_iters - gn_geo_iters``). ``turn``: the predicted
+    turn for the heading search's gate (:func:`yaw_search`). ``info`` (optional dict) gets
+    ``"gn_iters"`` (iterations run), ``"gn_steps"`` (each iteration's largest translation and
+    rotation step, m and rad) and the heading search's entries (:func:`yaw_search`).
     """
     param = cfg.param
     obs = sample_observation(frame, ref.observed, idx)
-    start = yaw_search(ref, frame, pred, cfg, idx, camera_height, obs)
+    start = yaw_search(ref, frame, pred, cfg, idx, camera_height, obs, info, turn)
     state = _initial_state(param, start, camera_height)
     scale = cfg.pixel_scale / max(len(idx), 1)
     ntr = 2 if param == "planar" else 3
     Ti = se3_inverse(ref.T_wc)
-    for it in range(cfg.gn_iters):
-        geo_only = it < cfg.gn_geo_iters
-        Trel, B, b = linearization(param, state, ref.T_wc, camera_height, Ti)
-        acc = accumulate(ref, obs, Trel, B, b, cfg, photometric=not geo_only)
-        _, pg, pH = prior_terms(param, state, pred, cfg, camera_height)
-        try:
-            delta = -np.linalg.solve(scale * acc.irls_H + pH, scale * acc.irls_g + pg)
-        except np.linalg.LinAlgError:
-            break
-        state = retract(param, state, delta)
-        if (not geo_only and np.abs(delta[:ntr]).max() < cfg.gn_tol[0]
-                and np.abs(delta[ntr:]).max() < cfg.gn_tol[1]):
-            break
+    n_geo = min(cfg.gn_geo_iters, cfg.gn_iters)
+    run = 0
+    # (photometric, iterations, tolerance) of the two phases
+    for photometric, n, tol in ((False, n_geo, cfg.gn_geo_tol), (True, cfg.gn_iters - n_geo, cfg.gn_tol)):
+        for _ in range(n):
+            run += 1
+            Trel, B, b = linearization(param, state, ref.T_wc, camera_height, Ti)
+            acc = accumulate(ref, obs, Trel, B, b, cfg, photometric=photometric)
+            _, pg, pH = prior_terms(param, state, pred, cfg, camera_height)
+            try:
+                delta = -np.linalg.solve(scale * acc.irls_H + pH, scale * acc.irls_g + pg)
+            except np.linalg.LinAlgError:
+                return _gn_done(param, state, info, run)
+            state = retract(param, state, delta)
+            step_tr, step_rot = np.abs(delta[:ntr]).max(), np.abs(delta[ntr:]).max()
+            if info is not None:
+                info.setdefault("gn_steps", []).append((float(step_tr), float(step_rot)))
+            if step_tr < tol[0] and step_rot < tol[1]:
+                break
+    return _gn_done(param, state, info, run)
+
+
+def _gn_done(param: str, state, info: dict | None, iterations: int) -> np.ndarray:
+    if info is not None:
+        info["gn_iters"] = iterations
     return to_planar(param, state)
 
 
@@ -243,15 +215,17 @@ def _gn_pixels(height: int, width: int, count: int, seed: int) -> np.ndarray:
 
 
 def align(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
-          seed: int = 0, camera_height: float = CAMERA_HEIGHT) -> np.ndarray:
-    """Eq. 7 minimised by the configured optimiser; returns the planar pose ``(3,)``."""
+          seed: int = 0, camera_height: float = CAMERA_HEIGHT, info: dict | None = None,
+          turn: float | None = None) -> np.ndarray:
+    """Eq. 7 minimised by the configured optimiser; returns the planar pose ``(3,)``.
+    ``info`` and ``turn``: Gauss-Newton's (:func:`align_gauss_newton`)."""
     H, W = ref.observed.shape
     pred = np.asarray(pred, dtype=np.float64)
     if cfg.optimizer == "adam":
         table = pixel_table(H, W, 100, cfg.adam_pixels, seed)
         return align_adam(ref, frame, pred, cfg, table, camera_height)
     return align_gauss_newton(ref, frame, pred, cfg, gn_pixels(H, W, cfg.gn_pixels, seed),
-                              camera_height)
+                              camera_height, info, turn)
 
 
 # ------------------------------------------------------------------------------ estimators
@@ -311,6 +285,8 @@ class _PredictionToObservation:
         self.last_timing: dict[str, float] = {}
         # with option health or recover: {"inliers": float, "alarm": bool, "relocalized": bool}
         self.last_health: dict | None = None
+        # the last update's optimiser counts: "gn_iters", "yaw_searched", "yaw_score" (align)
+        self.last_info: dict = {}
         self._ref: Reference | None = None
         self._ref_pose: np.ndarray | None = None
         self._prev_frame: Frame | None = None
@@ -391,7 +367,9 @@ class _PredictionToObservation:
         t1 = time.perf_counter()
         lazy_s = ref.lazy.seconds if ref.lazy is not None else 0.0
         pred = np.asarray(predict_pose(self.pose, control), dtype=np.float64)
-        est = align(ref, frame, pred, self.config, self.seed, self.camera_height)
+        self.last_info = {}
+        turn = (float(pred[2]) - float(self.pose[2]) + math.pi) % (2 * math.pi) - math.pi
+        est = align(ref, frame, pred, self.config, self.seed, self.camera_height, self.last_info, turn)
         t2 = time.perf_counter()
         extra: dict[str, float] = {}
         if self.config.health or self.config.recover:

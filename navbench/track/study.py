@@ -270,12 +270,15 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
               for name in config.estimators}
     for n, traj in enumerate(trajectories):
         active = [(name, s, est) for name, s, est in runs if n < limits[name]]
-        frame0 = camera.render(traj.start)
+        # no camera frame where no active estimator reads one (dynamics, gt; or an estimator's
+        # trajectory limit reached): a frame is a function of the pose, skipping it changes nothing
+        see = any(getattr(est, "uses_frames", True) for _, _, est in active)
+        frame0 = camera.render(traj.start) if see else None
         for name, s, est in active:
             est.reset(traj.start.copy(), frame0)
             per[(name, s)]["est"][n, 0] = traj.start
         for t in range(len(traj.controls)):
-            frame = camera.render(traj.true_poses[t + 1])
+            frame = camera.render(traj.true_poses[t + 1]) if see else None
             u = Control(*(float(v) for v in traj.controls[t]))
             for name, s, est in active:
                 rec = per[(name, s)]

@@ -45,6 +45,10 @@ class TrackerConfig:
     gn_geo_iters: int = 5  # the first iterations use the point-to-plane term only
     gn_pixels: int = 3000
     gn_tol: tuple[float, float] = (1e-5, 1e-5)  # stop when |step| below (m, rad)
+    # the point-to-plane-only iterations end early when |step| is below (m, rad), and the full
+    # eq. 7 then runs its own gn_iters - gn_geo_iters at most; (0, 0): never, all gn_geo_iters
+    # run (navbench-1). Chosen on tune-house only (docs/notebook/tracking.md, 2026-11-27)
+    gn_geo_tol: tuple[float, float] = (0.0, 0.0)
     # (photometric, geometric) IRLS weight floor: residuals below it are weighted quadratically
     irls_eps: tuple[float, float] = (0.01, 0.01)
     # normals: reject where inverse depth is not locally planar (relative second difference)
@@ -57,6 +61,16 @@ class TrackerConfig:
     yaw_search_deg: float = 24.0
     yaw_search_step_deg: float = 2.0
     yaw_search_pixels: int = 400
+    # gate of the heading search: it runs only when the prediction's own score (the search's:
+    # mean kept data term per kept photometric pixel, colour units + geo_weight x metres) is
+    # above this, i.e. when the residual says the turn was off; below it the optimiser starts
+    # from the prediction. 0: the search runs every step (navbench-1)
+    yaw_search_gate: float = 0.0
+    # the turn rule of the heading search (deg): the search runs after a predicted turn (the
+    # prediction's heading change) of at least this; after a smaller one only when
+    # yaw_search_gate > 0 and the residual opens it. 0: off (navbench-1). The controller turns in
+    # place by >= 5 deg or steps straight (turn 0), and the dynamics' heading noise acts only on a turn
+    yaw_search_turn_deg: float = 0.0
     # tracking health and recovery (issue 14; navbench.track.health, navbench.track.relocalize):
     # health: compute the inlier fraction at each estimate and raise an alarm below
     # health_min_inliers (0.5: calibrated on normal tracking of house-1; "auto": per map, below);
@@ -94,6 +108,10 @@ class TrackerConfig:
         for name in ("adam_steps", "adam_pixels", "gn_iters", "gn_pixels"):
             if int(getattr(self, name)) < 1:
                 raise TrackingError(f"option {name} must be >= 1, got {getattr(self, name)!r}")
+        if not (min(self.gn_tol) >= 0 and min(self.gn_geo_tol) >= 0 and self.yaw_search_gate >= 0
+                and self.yaw_search_turn_deg >= 0):
+            raise TrackingError("options gn_tol, gn_geo_tol, yaw_search_gate and yaw_search_turn_deg "
+                                "must be >= 0")
         if min(self.prior_sigma) <= 0 or min(self.off_plane_sigma) <= 0:
             raise TrackingError("prior sigmas must be > 0")
         m = self.health_min_inliers

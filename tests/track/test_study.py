@@ -146,3 +146,24 @@ def test_track_eval_cli_rejects_bad_options(tmp_path, level):
                                       "--estimators", "dynamics", "-o", "bad-option", "--json"])
     assert result.exit_code != 0
     assert isinstance(result.exception, ConfigError)
+
+
+def test_no_frame_is_rendered_for_trajectories_only_frameless_estimators_track(level, monkeypatch):
+    """dynamics and gt read no frame (issue 36): the camera renders only for the trajectories a
+    frame-reading estimator tracks (here no-map, limited to the first of three), and every
+    estimate is what it was with every frame rendered (a frame is a function of the pose)."""
+    from navbench.sim.camera import RaycastCamera
+
+    cfg = TrackingStudyConfig(trajectories=3, steps=5, estimators=("gt", "dynamics", "no-map"), seed=2,
+                              trajectory_limits={"no-map": 1})
+    calls = []
+    render = RaycastCamera.render
+    monkeypatch.setattr(RaycastCamera, "render", lambda self, *a, **k: calls.append(1) or render(self, *a, **k))
+    res = run_tracking_study(level, None, cfg)
+    assert len(calls) == 6  # trajectory 0 only: its start and its 5 steps
+    calls.clear()
+    only = run_tracking_study(level, None, TrackingStudyConfig(trajectories=3, steps=5,
+                                                              estimators=("gt", "dynamics"), seed=2))
+    assert calls == []
+    for name in ("gt", "dynamics"):
+        assert np.array_equal(only["estimators"][name]["est_poses"], res["estimators"][name]["est_poses"])

@@ -28,6 +28,8 @@ STORED_DEFAULTS = {
     "health_photo_tol": 0.3, "health_band": (0.05, 1.1), "health_pixels": 1000,
     "health_min_inliers": 0.5, "recover": False, "relocalizer_name": "localize", "relocalize_top": 3,
     "relocalize_keep": 0, "reference_scale": 1.0,
+    # issue 36 (2026-11-27): off by default, navbench-2 turns them on
+    "gn_geo_tol": (0.0, 0.0), "yaw_search_gate": 0.0, "yaw_search_turn_deg": 0.0,
 }
 
 
