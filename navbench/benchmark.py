@@ -31,6 +31,9 @@ from __future__ import annotations
 VERSIONS: dict[str, str] = {
     "navbench-1": "the pymunk simulator with per-pixel procedural textures, the paper's fit and "
                   "trackers as first reproduced (every result stored before versions existed)",
+    "navbench-2": "CANDIDATE, not accepted (docs/changelog.md): the camera's textures as texel "
+                  "tables, and ours / no-map stopping Gauss-Newton when it has converged with the "
+                  "heading search run on turns only",
 }
 #: The version new runs are produced under.
 BENCHMARK_VERSION = "navbench-1"
@@ -40,9 +43,21 @@ LEGACY_VERSION = "navbench-1"
 #: ``"fit.seed"``, ``"views.camera"``, ``"navigation.episode.<field>"``,
 #: ``"navigation.options.<estimator>.<option>"``) -> its value under the version. Only keys under
 #: :data:`SETTING_STAGES` are allowed (``[conditions]`` names: their ``navigation.episode`` field).
+#: navbench-2's levers were each measured alone (docs/notebook/speed.md, 2026-11-27; the
+#: tracker's tolerances chosen on tune-house only); the version is a candidate until its
+#: acceptance grid (profile ``acceptance``) is run and published.
+_CONVERGED = {"gn_geo_tol": [5e-4, 5e-4], "gn_tol": [5e-4, 5e-4], "yaw_search_turn_deg": 1.0}
 VERSION_SETTINGS: dict[str, dict[str, object]] = {
     "navbench-1": {},
+    "navbench-2": {
+        "views.texture": "table",
+        "navigation.episode.texture": "table",
+        **{f"navigation.options.{est}.{k}": v for est in ("ours", "no-map") for k, v in _CONVERGED.items()},
+    },
 }
+#: Versions that may be chosen but are not yet accepted: their acceptance grid is not published,
+#: so new runs are not produced under them by default (:data:`BENCHMARK_VERSION`).
+CANDIDATES: frozenset[str] = frozenset({"navbench-2"})
 #: Where a version's setting reaches the cache keys: the dotted prefix of a setting -> the stages
 #: whose own key carries the version (:func:`key_part`). Every stage downstream changes with its
 #: inputs' keys, and the navigation grid's cells (episode rows, trajectories, score, report) carry
@@ -54,7 +69,7 @@ SETTING_STAGES: dict[str, tuple[str, ...]] = {
     "navigation.goal_localizer.": ("image-goals",), "navigation.": (), "scoring.": (),
 }
 #: The Gymnasium environment id of each version (the id's suffix follows the images).
-GYM_IDS: dict[str, str] = {"navbench-1": "navbench/PointNav-v0"}
+GYM_IDS: dict[str, str] = {"navbench-1": "navbench/PointNav-v0", "navbench-2": "navbench/PointNav-v1"}
 
 
 class UnknownVersion(ValueError):
