@@ -7,6 +7,7 @@ bundled name (``quick``, ``paper``) or a path to a ``.toml`` file of the same la
     name = "quick"
     levels = ["house-1"]
     level_seed = 1
+    sim = "pymunk"   (or "vizdoom": the ViZDoom engine's pose and images; issue 37)
     [views]       camera, count, seed, eval_count, eval_seed
     [fit]         steps, seed, and optionally any other FitConfig field
     [tasks]       count, seed, difficulty (NRNS names: count tasks of each; issue 15)
@@ -41,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
+from navbench.benchmark import SIMULATORS
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_NAMES
 from navbench.nav.presets import DIFFICULTY_BANDS, PRESETS, check_preset_steps
@@ -102,6 +104,7 @@ class Profile:
     scoring_preset: str = "paper"    # navbench.nav.presets: paper, nrns, habitat
     online_ablation: str = "full"    # --map online*: a Table-4 ablation (stages.online.ABLATIONS)
     goal_localizer: dict = field(default_factory=dict)  # goal = "image": LocalizerConfig overrides of the goal search
+    sim: str = "pymunk"              # the simulator: "pymunk" or "vizdoom" (navbench.sim.backends; issue 37)
 
     def __post_init__(self):
         validate(self, _WHERE.get())
@@ -154,6 +157,7 @@ FIELDS: dict[str, tuple[str, Callable[[Any], None]]] = {
     "goal_localizer": ("[navigation] goal_localizer", _check_goal_localizer),
     "scoring_preset": ("[scoring] preset", lambda v: _check_str(v, tuple(PRESETS))),
     "online_ablation": ("[navigation] online_ablation", lambda v: _check_str(v, _online_ablations())),
+    "sim": ("sim", lambda v: _check_str(v, SIMULATORS)),
 }
 
 #: Fields holding a table: their messages continue the section label with the table's own field.
@@ -163,7 +167,7 @@ _TABLE_FIELDS = ("fit", "episode", "estimator_options")
 OPTION_NAMES = {"levels": "LEVELS", "estimators": "--estimators", "noise": "--noise",
                 "tasks": "--tasks", "seeds": "--seeds", "workers": "--workers", "map_source": "--map",
                 "fit_steps": "--steps", "fit_seed": "--seed", "camera": "--camera", "goal": "--goal", "scoring_preset": "--preset",
-                "online_ablation": "--online-ablation"}
+                "online_ablation": "--online-ablation", "sim": "--sim"}
 
 
 def check_field(fname: str, value: Any, where: str, label: str | None = None) -> None:
@@ -205,7 +209,8 @@ def check_grid_size(p: Profile, where: str) -> None:
 
 
 _SECTIONS: dict[str, dict[str, str]] = {
-    "": {"name": "name", "description": "description", "levels": "levels", "level_seed": "level_seed"},
+    "": {"name": "name", "description": "description", "levels": "levels", "level_seed": "level_seed",
+         "sim": "sim"},
     "views": {"camera": "camera", "count": "views", "seed": "views_seed",
               "eval_count": "eval_views", "eval_seed": "eval_seed"},
     "fit": {"steps": "fit_steps", "seed": "fit_seed"},

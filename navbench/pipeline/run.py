@@ -104,7 +104,8 @@ def open_db(db: "ResultsDB | str | None") -> Iterator["ResultsDB"]:
 
 @contextmanager
 def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
-                 ctx: "StageContext | None" = None, ref_name: str | None = None) -> Iterator[int]:
+                 ctx: "StageContext | None" = None, ref_name: str | None = None,
+                 sim: str = "pymunk") -> Iterator[int]:
     """Record a run around the block; yields its run id.
 
     The run row starts as ``running``; it ends ``done`` when the block returns, ``interrupted``
@@ -113,13 +114,18 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     the run instead (:meth:`ResultsDB.discard_run`), so no later run resumes it.
     With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
     cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
+    ``sim``: the simulator that produces the run's results; its benchmark version (the run
+    row's and its episodes') names it unless it is pymunk (:func:`navbench.benchmark.sim_version`).
     """
     from navbench.config import config_hash, to_jsonable
 
     from navbench.errors import NavbenchError
 
     cfg = to_jsonable(config)
-    run_id = db.start_run(profile, command, cfg, config_hash(cfg))
+    from navbench.benchmark import BENCHMARK_VERSION, sim_version
+
+    run_id = db.start_run(profile, command, cfg, config_hash(cfg),
+                          benchmark_version=sim_version(BENCHMARK_VERSION, sim))
     status = "failed"
     try:
         yield run_id
@@ -174,7 +180,8 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
     inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
     cfg = NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
                            seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
-                           estimator_options=dict(profile.estimator_options), goal=profile.goal)
+                           estimator_options=dict(profile.estimator_options), goal=profile.goal,
+                           sim=profile.sim)
     from navbench.pipeline.stages.online import online_config
 
     online = online_config(profile.map_source, profile.online_ablation)
@@ -307,12 +314,15 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     from navbench.pipeline.executor import check_executor
 
     check_executor(executor, prof.workers, address)  # before the run row (no failed run to resume)
+    from navbench.sim.backends import require_sim
+
+    require_sim(prof.sim, f"profile {prof.name}: sim")  # vizdoom installed? before the run row
     progress = progress or SilentProgress()
     with open_db(db) as rdb:
         ctx = stage_context(progress, rdb, cache_root=cache_root)
         command = command or f"run_profile({prof.name!r})"
         ref = f"{ref_name}-{prof.name}"
-        with recorded_run(rdb, prof.name, command, prof, ctx, ref) as run_id:
+        with recorded_run(rdb, prof.name, command, prof, ctx, ref, sim=prof.sim) as run_id:
             inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress)
             score = score_stage(ctx, summary.cells, preset=prof.scoring_preset) \
                 if until in ("score", "report") else None

@@ -37,6 +37,8 @@ class NavigationConfig:
     image_goal: object = None
     # issue 15 §5: --map online, the unknown-house loop (stages.online.OnlineConfig; None: off)
     online: object = None
+    # issue 37: the simulator (navbench.sim.backends); in the cell and condition keys unless pymunk
+    sim: str = "pymunk"
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,7 @@ class ChunkSpec:
     goals_path: str = ""  # image goals: the image-goals artifact (the targets the agent found)
     online: object = None  # --map online: the OnlineConfig (stages.online); goal_seed its goals'
     goal_seed: int = 0
+    sim: str = "pymunk"  # the simulator (navbench.sim.backends)
 
 
 def build_episode_config(overrides: dict):
@@ -142,10 +145,12 @@ def goal_key_part(cfg: NavigationConfig) -> dict:
 
 def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
     """All cells of the grid, in (level, noise, estimator) order."""
+    from navbench.benchmark import sim_key_part
     from navbench.pipeline.stages.online import online_key_part
 
     episode = resolved_episode_config(cfg)
     goal = {**goal_key_part(cfg), **online_key_part(cfg)}  # both {} for point goals on a given map
+    goal.update(sim_key_part(getattr(cfg, "sim", "pymunk")))  # {} on pymunk: its keys unchanged
     cells = []
     for li in inputs:
         for noise in cfg.noise:
@@ -217,5 +222,5 @@ def chunk_jobs(inputs: list[LevelInputs], cfg: NavigationConfig, jobs: list[Epis
                                    str(Path(li.tasks.path).resolve()), cfg.camera, cfg.slice_mode,
                                    tuple(js[i:i + chunk_size]),
                                    str(Path(goals.path).resolve()) if goals is not None else "",
-                                   cfg.online, getattr(cfg.image_goal, "seed", 0)))
+                                   cfg.online, getattr(cfg.image_goal, "seed", 0), cfg.sim))
     return specs
