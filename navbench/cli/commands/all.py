@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, SET_HELP, profile_default, profile_help
+from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, SET_HELP, SIM_HELP, profile_default, profile_help
 from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.artifacts import PAIRED_FILE  # light
 from navbench.pipeline.profiles import MAX_WORKERS  # light
@@ -71,6 +71,7 @@ def register(app: typer.Typer) -> None:
     def all_(
         profile: str = typer.Option(DEFAULT_PROFILE, "--profile", help=profile_help("Profile", shows_default=True)),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        sim: str = typer.Option(None, "--sim", help=f"{SIM_HELP} {profile_default('sim')}."),
         workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count "
                                  f"{profile_default('workers')}."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
@@ -95,12 +96,12 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import run_with_ui
         from navbench.pipeline.run import run_profile
 
-        if condition or sets:  # checked before any work, as run-navigation's
+        if condition or sets or sim is not None:  # checked before any work, as run-navigation's
             from navbench.pipeline.overrides import apply_sets
             from navbench.pipeline.profiles import load_profile, override
             from navbench.sim.conditions import conditions_to_episode, parse_condition_args
 
-            prof = apply_sets(load_profile(profile), sets)
+            prof = override(apply_sets(load_profile(profile), sets), sim=sim)
             if condition:
                 chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
                 prof = override(prof, episode={**prof.episode, **chosen})

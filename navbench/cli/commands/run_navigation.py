@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP, SET_HELP, default, profile_default, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, SIM_HELP, default, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
@@ -51,6 +51,7 @@ def register(app: typer.Typer) -> None:
                                             "endpoint (overrides the profile's \\[conditions] table)."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile")),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        sim: str = typer.Option(None, "--sim", help=f"{SIM_HELP} {profile_default('sim')}."),
         option: list[str] = typer.Option(None, "--option", "-o", metavar="ESTIMATOR.KEY=VALUE",
                                          help="Estimator option, repeatable (as track-eval's): "
                                          "-o ours.optimizer=adam; over the profile's "
@@ -86,7 +87,7 @@ def register(app: typer.Typer) -> None:
                         estimators=None if estimators is None else parse_list(estimators),
                         noise=None if noise is None else parse_list(noise),
                         tasks=tasks, seeds=seeds, workers=workers, map_source=map_source, goal=goal,
-                        online_ablation=online_ablation)
+                        online_ablation=online_ablation, sim=sim)
         if condition:
             chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
             prof = override(prof, episode={**prof.episode, **chosen})
