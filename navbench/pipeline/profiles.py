@@ -192,6 +192,13 @@ def validate(p: Profile, where: str | None = None) -> None:
                           "(the held-out views must not be the training views)")
     check_preset_steps(p.scoring_preset, p.episode.get("max_steps", 500), where)
     check_grid_size(p, where)
+    if p.sim != "pymunk":  # issue 37: what the engine backend does not cover (yet)
+        if p.episode.get("pose_quantisation", "off") != "off":
+            raise ConfigError(f"{where}: sim {p.sim}: pose_quantisation must be off (the engine "
+                              "quantises the pose itself: to the centimetre and 1/65536 turn)")
+        if p.goal != "point":
+            raise ConfigError(f"{where}: sim {p.sim}: goal {p.goal!r} is not supported (goal images "
+                              "are rendered by the ray-cast camera); use goal = \"point\"")
 
 
 def grid_size(p: Profile) -> int:

@@ -86,10 +86,12 @@ class PoseRenderer:
     pose on ``pymunk``; on ``vizdoom`` the engine's (position to the centimetre, heading to
     1/65536 turn: the engine's pose is the truth, :mod:`navbench.sim.doom.simulator`). The
     engine is teleported without navbench's collision check (a view or a recorded pose is
-    placed, not driven). Use as a context manager or call :meth:`close`.
+    placed, not driven). ``options``: the engine simulator's own (``depth="exact"``,
+    ``edge_steps``; :class:`~navbench.sim.doom.simulator.DoomSimulator`). Use as a context
+    manager or call :meth:`close`.
     """
 
-    def __init__(self, sim: str, level, intrinsics, camera_height: float):
+    def __init__(self, sim: str, level, intrinsics, camera_height: float, **options):
         check_sim(sim)
         self.sim = sim
         self.shown = None
@@ -100,7 +102,8 @@ class PoseRenderer:
             self._engine = None
         else:
             self._camera = None
-            self._engine = make_simulator(sim, level, "none", 0, intrinsics, camera_height=camera_height)
+            self._engine = make_simulator(sim, level, "none", 0, intrinsics, camera_height=camera_height,
+                                          **options)
         self.intrinsics = intrinsics if self._engine is None else self._engine.intrinsics
 
     def render(self, pose):

@@ -276,3 +276,14 @@ def test_a_tracking_study_on_the_engines_frames():
     assert np.all(res["estimators"]["gt"]["loc_rmse_m"] == 0.0)
     assert np.all(np.isfinite(res["estimators"]["no-map"]["loc_rmse_m"]))
     assert res["config"]["sim"] == "vizdoom"
+
+
+def test_what_the_engine_backend_refuses():
+    from navbench.pipeline.overrides import apply_sets
+    from navbench.pipeline.profiles import load_profile
+
+    with pytest.raises(ConfigError, match="sim vizdoom: pose_quantisation must be off"):
+        apply_sets(load_profile("vizdoom-quick"), ["conditions.pose_quantisation=round"])
+    with pytest.raises(ConfigError, match="sim vizdoom: goal 'image' is not supported"):
+        apply_sets(load_profile("quick"), ["navigation.goal=image", "sim=vizdoom"])
+    assert apply_sets(load_profile("quick"), ["conditions.pose_quantisation=round"]).sim == "pymunk"
