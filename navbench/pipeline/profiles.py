@@ -195,7 +195,8 @@ def validate(p: Profile, where: str | None = None) -> None:
     if p.sim != "pymunk":  # issue 37: what the engine backend does not cover (yet)
         if p.episode.get("pose_quantisation", "off") != "off":
             raise ConfigError(f"{where}: sim {p.sim}: pose_quantisation must be off (the engine "
-                              "quantises the pose itself: to the centimetre and 1/65536 turn)")
+                              "quantises the pose itself: to the centimetre and 1/65536 turn); add "
+                              "--condition pose_quantisation=off (or --set conditions.pose_quantisation=off)")
         if p.goal != "point":
             raise ConfigError(f"{where}: sim {p.sim}: goal {p.goal!r} is not supported (goal images "
                               "are rendered by the ray-cast camera); use goal = \"point\"")

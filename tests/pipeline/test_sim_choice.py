@@ -287,3 +287,21 @@ def test_what_the_engine_backend_refuses():
     with pytest.raises(ConfigError, match="sim vizdoom: goal 'image' is not supported"):
         apply_sets(load_profile("quick"), ["navigation.goal=image", "sim=vizdoom"])
     assert apply_sets(load_profile("quick"), ["conditions.pose_quantisation=round"]).sim == "pymunk"
+
+
+def test_the_paper_profile_on_the_engine_with_its_quantisation_off(project, monkeypatch, capsys):
+    """--sim is checked after --condition: the paper's profile runs on the engine once its
+    emulated quantisation is off (the engine quantises itself); without it, one line saying so."""
+    seen = {}
+
+    def fake_run_profile(prof, **kwargs):
+        seen["profile"] = prof
+        raise ConfigError("stopped before any stage")
+
+    monkeypatch.setattr("navbench.pipeline.run.run_profile", fake_run_profile)
+    assert _cli(["run-navigation", "--profile", "paper", "--sim", "vizdoom"], monkeypatch) == 2
+    assert "add --condition pose_quantisation=off" in capsys.readouterr().err and not seen
+    assert _cli(["run-navigation", "--profile", "paper", "--sim", "vizdoom", "--condition",
+                 "pose_quantisation=off"], monkeypatch) == 2
+    assert "stopped before any stage" in capsys.readouterr().err
+    assert seen["profile"].sim == "vizdoom" and seen["profile"].episode["pose_quantisation"] == "off"

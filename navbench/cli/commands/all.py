@@ -101,10 +101,11 @@ def register(app: typer.Typer) -> None:
             from navbench.pipeline.profiles import load_profile, override
             from navbench.sim.conditions import conditions_to_episode, parse_condition_args
 
-            prof = override(apply_sets(load_profile(profile), sets), sim=sim)
+            prof = apply_sets(load_profile(profile), sets)
             if condition:
                 chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
                 prof = override(prof, episode={**prof.episode, **chosen})
+            prof = override(prof, sim=sim)  # after the conditions it is checked against
             profile = prof
         t0 = time.perf_counter()
         result = run_with_ui(lambda ui: run_profile(profile, db=db, executor=executor, workers=workers,

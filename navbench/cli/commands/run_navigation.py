@@ -87,12 +87,13 @@ def register(app: typer.Typer) -> None:
                         estimators=None if estimators is None else parse_list(estimators),
                         noise=None if noise is None else parse_list(noise),
                         tasks=tasks, seeds=seeds, workers=workers, map_source=map_source, goal=goal,
-                        online_ablation=online_ablation, sim=sim)
+                        online_ablation=online_ablation)
         if condition:
             chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
             prof = override(prof, episode={**prof.episode, **chosen})
         if option:
             prof = _with_options(prof, parse_estimator_options(option))
+        prof = override(prof, sim=sim)  # after the conditions it is checked against
 
         result = run_with_ui(lambda ui: run_profile(prof, db=db, executor=executor, address=address,
                                                     chunk_size=chunk, progress=ui, until="navigation",
