@@ -19,6 +19,10 @@ __all__ = ["DB_HELP", "DB_URL", "DEFAULT_PROFILE", "RUN_VERSION_HELP", "SET_HELP
            "profile_default", "profile_help", "profile_values"]
 
 #: Help of the ``--set KEY=VALUE`` option of every command that takes a profile.
+SIM_HELP = ("The simulator: pymunk (navbench's exact ray-cast world) or vizdoom (the paper's engine: "
+            "its pose and images, navbench's dynamics and collisions; needs pip install "
+            "'navbench\\[vizdoom]'). Part of every cache key it affects and of the run's benchmark "
+            "version (navbench-1+vizdoom)")
 SET_HELP = ("Change one profile field, repeatable: KEY=VALUE, KEY the field's dotted place in the "
             "profile's TOML (fit.steps=300, tasks.count=3, navigation.estimators=ours,gt, "
             "levels=house-1,house-2, navigation.episode.max_steps=300); checked as the profile's "

@@ -77,7 +77,8 @@ def _typed(fname: str, text: str, label: str = "--set") -> Any:
         if text.strip().startswith("["):
             return _toml_value(text, label)
         return [t.strip() for t in text.split(",") if t.strip()]
-    if fname in ("name", "description", "benchmark_version", "camera", "map_source", "goal", "scoring_preset", "online_ablation"):
+    if fname in ("name", "description", "benchmark_version", "camera", "map_source", "goal", "scoring_preset",
+                 "online_ablation", "sim"):
         v = _toml_value(text, label)
         return v if isinstance(v, str) else text
     return _toml_value(text, label)

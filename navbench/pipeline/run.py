@@ -104,7 +104,8 @@ def open_db(db: "ResultsDB | str | None") -> Iterator["ResultsDB"]:
 
 @contextmanager
 def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
-                 ctx: "StageContext | None" = None, ref_name: str | None = None) -> Iterator[int]:
+                 ctx: "StageContext | None" = None, ref_name: str | None = None,
+                 sim: str = "pymunk") -> Iterator[int]:
     """Record a run around the block; yields its run id.
 
     The run row starts as ``running``; it ends ``done`` when the block returns, ``interrupted``
@@ -114,15 +115,20 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
     cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
     The run row's benchmark version (which every episode row it stores copies) is ``config``'s
-    ``benchmark_version`` (a profile's), else :data:`navbench.benchmark.BENCHMARK_VERSION`.
+    ``benchmark_version`` (a profile's), else :data:`navbench.benchmark.BENCHMARK_VERSION`,
+    named with the simulator ``sim`` that produces the run's results unless it is pymunk
+    (:func:`navbench.benchmark.sim_version`: ``navbench-1+vizdoom``).
     """
     from navbench.config import config_hash, to_jsonable
 
     from navbench.errors import NavbenchError
 
     cfg = to_jsonable(config)
-    version = getattr(config, "benchmark_version", None)
-    run_id = db.start_run(profile, command, cfg, config_hash(cfg), benchmark_version=version)
+    from navbench.benchmark import BENCHMARK_VERSION, sim_version
+
+    version = getattr(config, "benchmark_version", None) or BENCHMARK_VERSION
+    run_id = db.start_run(profile, command, cfg, config_hash(cfg),
+                          benchmark_version=sim_version(version, sim))
     status = "failed"
     try:
         yield run_id
@@ -151,7 +157,7 @@ def navigation_config(profile: "Profile"):
     return NavigationConfig(estimators=tuple(profile.estimators), noise=tuple(profile.noise),
                             seeds=profile.seeds, camera=profile.camera, episode=dict(profile.episode),
                             estimator_options=dict(profile.estimator_options), goal=profile.goal,
-                            benchmark_version=profile.benchmark_version)
+                            benchmark_version=profile.benchmark_version, sim=profile.sim)
 
 
 def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str = "local",
@@ -323,12 +329,15 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     from navbench.pipeline.executor import check_executor
 
     check_executor(executor, prof.workers, address)  # before the run row (no failed run to resume)
+    from navbench.sim.backends import require_sim
+
+    require_sim(prof.sim, f"profile {prof.name}: sim")  # vizdoom installed? before the run row
     progress = progress or SilentProgress()
     with open_db(db) as rdb:
         ctx = stage_context(progress, rdb, cache_root=cache_root)
         command = command or f"run_profile({prof.name!r})"
         ref = f"{ref_name}-{prof.name}"
-        with recorded_run(rdb, prof.name, command, prof, ctx, ref) as run_id:
+        with recorded_run(rdb, prof.name, command, prof, ctx, ref, sim=prof.sim) as run_id:
             inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress)
             score = score_stage(ctx, summary.cells, preset=prof.scoring_preset) \
                 if until in ("score", "report") else None

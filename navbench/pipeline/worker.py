@@ -39,13 +39,12 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
     """Worker entry point: run a chunk's episodes; returns ``(job, record, score)`` triples."""
     from navbench.geometry import CAMERA_HEIGHT, camera_by_name
     from navbench.pipeline.stages.grid import build_episode_config
-    from navbench.nav.episode import run_episode
     from navbench.nav.metrics import score_episode
-    from navbench.sim.world import Simulator
-    from navbench.track.registry import make_estimator, uses_frames
+    from navbench.sim.backends import close_simulator, make_simulator, sim_intrinsics
+    from navbench.track.registry import uses_frames
 
     level, vmap, occ2d, xs, ys, tasks, geodesic = _worker_inputs(spec)
-    intr = camera_by_name(spec.camera)
+    intr = sim_intrinsics(spec.sim, camera_by_name(spec.camera))  # vizdoom: the engine's projection
     goals = None
     if spec.goals_path:
         from navbench.pipeline.stages.goals import load_goals
@@ -57,27 +56,43 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
         ep_cfg = build_episode_config(c.episode)
         # estimators that never look at frames skip rendering; the unknown-house loop maps from them
         frames = uses_frames(c.estimator) or spec.online is not None
-        sim = Simulator(level, noise=c.noise, seed=job.sim_seed, intrinsics=intr if frames else None,
-                        camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
-                        pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check,
-                        texture=ep_cfg.texture)
-        est = None if spec.online is not None else make_estimator(
-            c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT, renderer=None,
-            seed=job.estimator_seed, **c.options)
-        task = tasks[job.task_id]
-        if spec.online is not None:  # the unknown-house loop: no prior map, the true pose
-            from navbench.pipeline.stages.online import loop_config, run_online_episode
-
-            record = run_online_episode(level, vmap, task, sim, intr, spec.online,
-                                        loop_config(c.episode, spec.online.ablation),
-                                        spec.goal_seed, c.noise, job.seed, c.estimator,
-                                        job.estimator_seed, c.options)
-        elif goals is None:
-            record = run_episode(level, occ2d, xs, ys, task, est, sim, config=ep_cfg)
-        else:  # plan and track to the goal found in the map; scored against the true target
-            from navbench.nav.imagegoal import run_image_goal_episode
-
-            record = run_image_goal_episode(level, occ2d, xs, ys, task, goals[job.task_id]["pose"],
-                                            est, sim, ep_cfg)
+        # the camera's texture mode is the pymunk camera's (navbench.sim.texels); the engine has its own
+        tex = {"texture": ep_cfg.texture} if spec.sim == "pymunk" else {}
+        sim = make_simulator(spec.sim, level, noise=c.noise, seed=job.sim_seed,
+                             intrinsics=camera_by_name(spec.camera) if frames else None,
+                             camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
+                             pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check,
+                             **tex)
+        try:
+            record = _run_one(spec, job, c, ep_cfg, level, vmap, occ2d, xs, ys, tasks, goals, sim, intr)
+        finally:
+            close_simulator(sim)  # the engine's process (vizdoom)
         out.append((job, record, score_episode(record, geodesic=geodesic)))
     return out
+
+
+def _run_one(spec, job, c, ep_cfg, level, vmap, occ2d, xs, ys, tasks, goals, sim, intr):
+    """One episode's record on ``sim`` (its simulator, built by the caller)."""
+    from navbench.geometry import CAMERA_HEIGHT
+    from navbench.nav.episode import run_episode
+    from navbench.track.registry import make_estimator
+
+    est = None if spec.online is not None else make_estimator(
+        c.estimator, vmap=vmap, intrinsics=intr, camera_height=CAMERA_HEIGHT, renderer=None,
+        seed=job.estimator_seed, **c.options)
+    task = tasks[job.task_id]
+    if spec.online is not None:  # the unknown-house loop: no prior map, the true pose
+        from navbench.pipeline.stages.online import loop_config, run_online_episode
+
+        record = run_online_episode(level, vmap, task, sim, intr, spec.online,
+                                    loop_config(c.episode, spec.online.ablation),
+                                    spec.goal_seed, c.noise, job.seed, c.estimator,
+                                    job.estimator_seed, c.options)
+    elif goals is None:
+        record = run_episode(level, occ2d, xs, ys, task, est, sim, config=ep_cfg)
+    else:  # plan and track to the goal found in the map; scored against the true target
+        from navbench.nav.imagegoal import run_image_goal_episode
+
+        record = run_image_goal_episode(level, occ2d, xs, ys, task, goals[job.task_id]["pose"],
+                                        est, sim, ep_cfg)
+    return record

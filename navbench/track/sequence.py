@@ -112,34 +112,39 @@ def planner_walk(level, frames: int, seed: int = 0, noise: str = "none") -> np.n
 
 
 def render_poses(level, poses, intrinsics, camera_height: float | None = None, seed: int = 0,
-                 meta: dict | None = None):
+                 meta: dict | None = None, sim: str = "pymunk"):
     """The exact ray-cast views of ``level`` at the planar ``poses (N, 3)`` in order, as
-    :class:`~navbench.worldmodel.views.Views` (export with :func:`navbench.worldmodel.tum.export_views`)."""
+    :class:`~navbench.worldmodel.views.Views` (export with :func:`navbench.worldmodel.tum.export_views`).
+    ``sim="vizdoom"``: the engine's frames, each labelled with the pose the engine shows, and
+    the engine's projection as the views' intrinsics (:class:`navbench.sim.backends.PoseRenderer`)."""
     from navbench.geometry import CAMERA_HEIGHT
-    from navbench.sim.camera import RaycastCamera
+    from navbench.sim.backends import PoseRenderer
     from navbench.worldmodel.views import Views, check_views_memory
 
     poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     frames = len(poses)
     check_views_memory(frames, intrinsics, "render a sequence")
     cam_h = CAMERA_HEIGHT if camera_height is None else float(camera_height)
-    camera = RaycastCamera(level, intrinsics, cam_h)
     H, W = intrinsics.shape
     rgb = np.empty((frames, H, W, 3), np.uint8)
     depth = np.empty((frames, H, W), np.float32)
     valid = np.empty((frames, H, W), bool)
-    for n, pose in enumerate(poses):
-        fr = camera.render(pose)
-        rgb[n] = np.clip(np.rint(fr.rgb * 255.0), 0, 255).astype(np.uint8)
-        depth[n] = fr.depth
-        valid[n] = fr.valid
+    shown = poses.copy()
+    with PoseRenderer(sim, level, intrinsics, cam_h) as camera:
+        for n, pose in enumerate(poses):
+            fr = camera.render(pose)
+            shown[n] = camera.shown
+            rgb[n] = np.clip(np.rint(fr.rgb * 255.0), 0, 255).astype(np.uint8)
+            depth[n] = fr.depth
+            valid[n] = fr.valid
+        intrinsics = camera.intrinsics
     box = ((0.0, 0.0, 0.0), (float(level.width), float(level.depth), float(level.height)))
-    return Views(poses.copy(), intrinsics, cam_h, rgb, depth, valid, level.name, int(seed), box,
-                 dict(meta or {}))
+    meta = dict(meta or {}, **({} if sim == "pymunk" else {"sim": sim}))
+    return Views(shown, intrinsics, cam_h, rgb, depth, valid, level.name, int(seed), box, meta)
 
 
 def render_walk(level, frames: int, intrinsics, seed: int = 0, camera_height: float | None = None,
-                noise: str = "tracking", walk: str = "random"):
+                noise: str = "tracking", walk: str = "random", sim: str = "pymunk"):
     """A sequence rendered by navbench, as :class:`~navbench.worldmodel.views.Views` (``frames``
     views in walk order; export it with :func:`navbench.worldmodel.tum.export_views` for a TUM
     sequence), rendered exactly by the ray-cast camera at every true pose of the walk:
@@ -148,6 +153,8 @@ def render_walk(level, frames: int, intrinsics, seed: int = 0, camera_height: fl
       (``frames - 1`` controls with the simulator's ``noise`` from ``seed``);
     * ``walk="planner"``: :func:`planner_walk` (the shortest paths between sampled tasks, driven
       by the simulator with ``noise``).
+
+    ``sim``: the frames' simulator (:func:`render_poses`; the walk itself is navbench's).
     """
     from navbench.track.study import record_trajectories
 
@@ -163,4 +170,4 @@ def render_walk(level, frames: int, intrinsics, seed: int = 0, camera_height: fl
     else:
         poses = planner_walk(level, frames, seed, noise)
     meta = {"walk_seed": int(seed), "noise": noise, **({} if walk == "random" else {"walk": walk})}
-    return render_poses(level, poses, intrinsics, camera_height, seed, meta)
+    return render_poses(level, poses, intrinsics, camera_height, seed, meta, sim)

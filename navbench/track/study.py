@@ -74,6 +74,10 @@ class TrackingStudyConfig:
     # records no motion, as a bumper and stalled wheels would; the recording goes on to a new
     # waypoint). Left out of the key at "freeze".
     collisions: str = "freeze"
+    # issue 37: the simulator whose frames the estimators replay (navbench.sim.backends): on
+    # "vizdoom" the engine renders every recorded pose, and the pose it shows (to the centimetre
+    # and 1/65536 turn) is the truth the errors are measured against. Left out of the key at "pymunk".
+    sim: str = "pymunk"
 
     def __post_init__(self):
         if self.trajectories < 1 or self.seeds < 1 or self.steps < 1:
@@ -95,6 +99,9 @@ class TrackingStudyConfig:
         if self.collisions not in COLLISION_MODES:
             raise ConfigError(f"--collisions: expected one of {', '.join(COLLISION_MODES)}, "
                               f"got {self.collisions!r}")
+        from navbench.sim.backends import check_sim
+
+        check_sim(self.sim)
         if self.kidnap_every and self.odometry != "body":
             raise ConfigError("--kidnap-every needs --odometry body (world-frame controls would "
                               "tell the estimators the new true heading)")
@@ -227,19 +234,35 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
                                "estimate_ms": (N*S, T), "step_ms": (N*S, T)}}}
     """
     from navbench.geometry import camera_by_name
-    from navbench.sim.camera import RaycastCamera
+    from navbench.sim.backends import PoseRenderer
+
+    camera = PoseRenderer(config.sim, level, camera_by_name(config.camera), config.camera_height)
+    try:
+        return _replay(level, vmap, config, trajectories, progress, health_thresholds, camera)
+    finally:
+        camera.close()
+
+
+def _replay(level, vmap, config, trajectories, progress, health_thresholds, camera):
+    """:func:`run_tracking_study` with its frames from ``camera`` (a
+    :class:`~navbench.sim.backends.PoseRenderer`)."""
     from navbench.sim.dynamics import Control
     from navbench.nav.metrics import location_rmse
     from navbench.track.kidnap import body_control, dead_reckoning
     from navbench.track.registry import make_estimator, uses_map
 
-    intr = camera_by_name(config.camera)
+    intr = camera.intrinsics  # vizdoom: the engine's projection, which the estimators must use
     if trajectories is None:
         trajectories = record_trajectories(level, config.trajectories, config.steps, config.noise,
                                            config.seed, config.waypoint_clearance,
                                            config.waypoint_range, config.kidnap_every,
                                            config.collisions)
-    camera = RaycastCamera(level, intr, config.camera_height)
+    engine = config.sim != "pymunk"
+    if engine:  # the engine's pose is the truth: each trajectory's poses are replaced as shown
+        import dataclasses
+
+        trajectories = [dataclasses.replace(t, start=t.start.copy(), true_poses=t.true_poses.copy())
+                        for t in trajectories]
     opts = config.estimator_options or {}
     online = _is_online(vmap)  # issue 15: each map-based run tracks and maps on its own copy
     runs = []  # (name, seed, estimator)
@@ -271,14 +294,20 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     for n, traj in enumerate(trajectories):
         active = [(name, s, est) for name, s, est in runs if n < limits[name]]
         # no camera frame where no active estimator reads one (dynamics, gt; or an estimator's
-        # trajectory limit reached): a frame is a function of the pose, skipping it changes nothing
-        see = any(getattr(est, "uses_frames", True) for _, _, est in active)
+        # trajectory limit reached): a frame is a function of the pose, skipping it changes nothing.
+        # On the engine the frame also gives the pose it shows (the true pose from then on): always.
+        see = engine or any(getattr(est, "uses_frames", True) for _, _, est in active)
         frame0 = camera.render(traj.start) if see else None
+        if engine:
+            traj.start[:] = camera.shown
+            traj.true_poses[0] = camera.shown
         for name, s, est in active:
             est.reset(traj.start.copy(), frame0)
             per[(name, s)]["est"][n, 0] = traj.start
         for t in range(len(traj.controls)):
             frame = camera.render(traj.true_poses[t + 1]) if see else None
+            if engine:
+                traj.true_poses[t + 1] = camera.shown
             u = Control(*(float(v) for v in traj.controls[t]))
             for name, s, est in active:
                 rec = per[(name, s)]

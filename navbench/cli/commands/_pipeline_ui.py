@@ -33,11 +33,15 @@ def run_with_ui(body, json_mode: bool = False):
 
 
 def load_profile_with(profile: str | None, sets: list[str] | None = None, **overrides):
-    """Load a profile, apply the ``--set KEY=VALUE`` items, then the CLI's non-None overrides."""
+    """Load a profile, apply the ``--set KEY=VALUE`` items, then the CLI's non-None overrides;
+    its simulator must be installed (:func:`navbench.sim.backends.require_sim`)."""
     from navbench.pipeline.overrides import apply_sets
     from navbench.pipeline.profiles import load_profile, override
+    from navbench.sim.backends import require_sim
 
-    return override(apply_sets(load_profile(profile), sets), **overrides)
+    prof = override(apply_sets(load_profile(profile), sets), **overrides)
+    require_sim(prof.sim, "--sim" if overrides.get("sim") is not None else f"profile {prof.name}: sim")
+    return prof
 
 
 def command_line() -> str:

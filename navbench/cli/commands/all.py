@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import DB_HELP, DEFAULT_PROFILE, RUN_VERSION_HELP, SET_HELP, profile_default, profile_help
+from navbench.cli._help import (DB_HELP, DEFAULT_PROFILE, RUN_VERSION_HELP, SET_HELP, SIM_HELP, profile_default,
+                                profile_help)
 from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.artifacts import PAIRED_FILE  # light
 from navbench.pipeline.profiles import MAX_WORKERS  # light
@@ -73,6 +74,7 @@ def register(app: typer.Typer) -> None:
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
         benchmark_version: str = typer.Option(None, "--benchmark-version", metavar="NAME", help=RUN_VERSION_HELP,
                                               show_default=False),
+        sim: str = typer.Option(None, "--sim", help=f"{SIM_HELP} {profile_default('sim')}."),
         workers: int = typer.Option(None, "--workers", min=0, max=MAX_WORKERS, help="Worker processes; 0 = CPU count "
                                  f"{profile_default('workers')}."),
         executor: str = typer.Option("local", "--executor", help="local (process pool) or ray."),
@@ -97,7 +99,7 @@ def register(app: typer.Typer) -> None:
         from navbench.cli.commands._pipeline_ui import run_with_ui
         from navbench.pipeline.run import run_profile
 
-        if condition or sets or benchmark_version is not None:  # checked before any work
+        if condition or sets or benchmark_version is not None or sim is not None:  # checked before any work
             from navbench.pipeline.overrides import apply_sets
             from navbench.pipeline.profiles import load_profile, override
             from navbench.pipeline.versioning import with_version
@@ -110,6 +112,7 @@ def register(app: typer.Typer) -> None:
             if condition:
                 chosen = conditions_to_episode(parse_condition_args(condition), "--condition")
                 prof = override(prof, episode={**prof.episode, **chosen})
+            prof = override(prof, sim=sim)  # after the conditions it is checked against
             profile = prof
         t0 = time.perf_counter()
         result = run_with_ui(lambda ui: run_profile(profile, db=db, executor=executor, workers=workers,

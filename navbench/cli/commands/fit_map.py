@@ -9,7 +9,7 @@ import typer
 
 from navbench.cli import _tum
 from navbench.cli._common import console, print_json
-from navbench.cli._help import DB_HELP, SET_HELP, default, profile_default, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, SIM_HELP, default, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_FIT_STEPS, MAX_VIEWS  # light
 
 
@@ -33,6 +33,7 @@ def register(app: typer.Typer) -> None:
         camera: str = typer.Option(None, "--camera", help=f"half or paper, for LEVEL's collected views {profile_default('camera')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        sim: str = typer.Option(None, "--sim", help=f"{SIM_HELP}: of LEVEL's views {profile_default('sim')}."),
         device: str = typer.Option(None, "--device", help="Where the fit runs: auto (= cpu, the numba path: "
                                    "faster than cuda even on an H100, docs/notebook/gpu.md), cpu, cuda[:N] (the "
                                    "GPU path), or torch-cpu (the GPU path's code on the CPU, slow) "
@@ -67,7 +68,7 @@ def register(app: typer.Typer) -> None:
                               "TUM RGB-D directory or a cached views key)")
         opts = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                    max_height_dev)
-        prof = load_profile_with(profile, sets, fit_steps=steps, fit_seed=seed, camera=camera)
+        prof = load_profile_with(profile, sets, fit_steps=steps, fit_seed=seed, camera=camera, sim=sim)
         if device is not None:  # checked as the option the user typed, not as the profile's [fit]
             from navbench.pipeline.checks import _check_fit, _Invalid
 

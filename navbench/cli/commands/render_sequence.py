@@ -26,6 +26,10 @@ def register(app: typer.Typer) -> None:
         camera: str = typer.Option("half", "--camera", help="half (160x120) or paper (320x240)."),
         seed: int = typer.Option(0, "--seed", min=0, help="Seed of the walk (its tasks or random "
                                  "waypoints) and of the odometry noise."),
+        sim: str = typer.Option("pymunk", "--sim", help="The frames' simulator: pymunk (the exact "
+                                "ray-cast camera) or vizdoom (the paper's engine; its projection is "
+                                "written to intrinsics.json, its pose to groundtruth.txt; needs pip "
+                                "install 'navbench\\[vizdoom]')."),
     ):
         """Render a continuous walk as TUM RGB-D: rgb/, depth/ (16-bit, m x 5000), rgb.txt,
         depth.txt, groundtruth.txt, intrinsics.json, and with --noise odometry.txt.
@@ -58,6 +62,9 @@ def register(app: typer.Typer) -> None:
         if camera not in CAMERA_NAMES:
             raise ConfigError(f"--camera {camera}: unknown camera{did_you_mean(camera, CAMERA_NAMES)}; "
                               f"choose one of {', '.join(CAMERA_NAMES)}")
+        from navbench.sim.backends import require_sim
+
+        require_sim(sim)
         check_output(out, "OUT", kind="dir", example="seq")
         if out.is_dir() and any(out.iterdir()):  # never mixed with, or written over, other files
             raise ConfigError(f"OUT {out}: is not empty; render into a new or empty folder")
@@ -70,7 +77,7 @@ def register(app: typer.Typer) -> None:
             ref = study_level(stage_context(ui), level)
         lv = load_level_ref(ref)
         views = render_walk(lv, frames, intrinsics, seed=seed, walk=walk,
-                            noise="none" if walk == "planner" else "tracking")
+                            noise="none" if walk == "planner" else "tracking", sim=sim)
         export_views(views, out)
         wrote = "rgb/, depth/, rgb.txt, depth.txt, groundtruth.txt, intrinsics.json"
         if noise is not None:

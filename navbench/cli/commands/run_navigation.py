@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP, RUN_VERSION_HELP, SET_HELP, default, profile_default, profile_help
+from navbench.cli._help import DB_HELP, RUN_VERSION_HELP, SET_HELP, SIM_HELP, default, profile_default, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
@@ -53,6 +53,7 @@ def register(app: typer.Typer) -> None:
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
         benchmark_version: str = typer.Option(None, "--benchmark-version", metavar="NAME", help=RUN_VERSION_HELP,
                                               show_default=False),
+        sim: str = typer.Option(None, "--sim", help=f"{SIM_HELP} {profile_default('sim')}."),
         option: list[str] = typer.Option(None, "--option", "-o", metavar="ESTIMATOR.KEY=VALUE",
                                          help="Estimator option, repeatable (as track-eval's): "
                                          "-o ours.optimizer=adam; over the profile's "
@@ -99,6 +100,7 @@ def register(app: typer.Typer) -> None:
             prof = override(prof, episode={**prof.episode, **chosen})
         if option:
             prof = _with_options(prof, parse_estimator_options(option))
+        prof = override(prof, sim=sim)  # after the conditions it is checked against
 
         result = run_with_ui(lambda ui: run_profile(prof, db=db, executor=executor, address=address,
                                                     chunk_size=chunk, progress=ui, until="navigation",

@@ -6,7 +6,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, parse_estimator_options, parse_list, print_json
-from navbench.cli._help import DB_HELP, SET_HELP, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, SIM_HELP, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS  # light
 
 
@@ -55,6 +55,8 @@ def register(app: typer.Typer) -> None:
         paper_budget: bool = typer.Option(False, "--paper-budget", help="Emission tracker with the "
                                           "paper's budget (100 steps x 1000 pixels) instead of the "
                                           "study's default (20 x 500)."),
+        sim: str = typer.Option(None, "--sim", help=SIM_HELP + " \\[default: the profile's sim with "
+                                "--map fit, else pymunk]."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object keyed by estimator."),
         db: str = typer.Option(None, "--db", help=DB_HELP),
         no_store: bool = typer.Option(False, "--no-store", help="Do not store the per-trajectory "
@@ -91,6 +93,15 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.overrides import apply_sets
 
         prof = apply_sets(load_profile(profile), sets) if map_ == "fit" else None
+        from navbench.sim.backends import require_sim
+
+        if sim is None:
+            sim = prof.sim if prof is not None else "pymunk"
+        require_sim(sim)  # a known name, and vizdoom installed: before anything is built
+        if prof is not None:  # --map fit: the map of the same simulator's views
+            from navbench.pipeline.profiles import override
+
+            prof = override(prof, sim=sim)
         from navbench.errors import ConfigError
         from navbench.pipeline.profiles import NOISE_NAMES
 
@@ -117,7 +128,8 @@ def register(app: typer.Typer) -> None:
                                   estimators=names, camera=camera, seed=seed, noise=noise,
                                   estimator_options=opts,
                                   trajectory_limits={"emission": emission_trajectories},
-                                  kidnap_every=kidnap_every, odometry=odometry, collisions=collisions)
+                                  kidnap_every=kidnap_every, odometry=odometry, collisions=collisions,
+                                  sim=sim)
         from navbench.track.registry import uses_map
 
         needs_map = any(uses_map(n) for n in names)
@@ -130,7 +142,7 @@ def register(app: typer.Typer) -> None:
             vmap = study_map(ctx, map_, level_ref, prof, needs_map)
             config = {"level": level_ref.key, "map": vmap.key, "study": cfg}
             record = nullcontext() if rdb is None else recorded_run(
-                rdb, "track-eval", command_line(), config, ctx, f"track-eval-{level_ref.name}")
+                rdb, "track-eval", command_line(), config, ctx, f"track-eval-{level_ref.name}", sim=sim)
             with record as run_id:
                 ref = track_eval_stage(ctx, level_ref, vmap, cfg)
                 res = load_study(ref.path)
@@ -150,7 +162,7 @@ def register(app: typer.Typer) -> None:
                     "cached": ref.cached, "camera": camera, "trajectories": trajectories,
                     "steps": steps, "seeds": seeds, "options": opts, "noise": noise,
                     "odometry": odometry, "kidnap_every": kidnap_every, "raw_odometry": raw,
-                    "collisions": collisions,
+                    "collisions": collisions, "sim": sim,
                     "collided_trajectories": int(sum(res["trajectories"]["collided"])),
                     "trajectory_limits": cfg.trajectory_limits,
                     "wall_s": round(time.perf_counter() - t0, 3), "stored": stored,
@@ -161,6 +173,7 @@ def register(app: typer.Typer) -> None:
 
         t = Table(title=escape(f"tracking on {lvl_name} ({trajectories} x {steps} steps, noise {noise}, "
                                f"odometry {odometry}, map {map_}, camera {camera}"
+                               + (f", sim {sim}" if sim != "pymunk" else "")
                                + (f", kidnap every {kidnap_every}" if kidnap_every else "") + ")"))
         for col in ("estimator", "runs", "ATE median (m)", "ATE p99 (m)",
                     "< 0.1 m", "rot RMSE median (deg)", "step median (ms)"):

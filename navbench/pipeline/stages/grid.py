@@ -41,6 +41,8 @@ class NavigationConfig:
     # issue 36: the benchmark version; every cell and condition key carries it (key_part:
     # nothing for navbench-1), so the episodes of two versions are never one another's
     benchmark_version: str = LEGACY_VERSION
+    # issue 37: the simulator (navbench.sim.backends); in the cell and condition keys unless pymunk
+    sim: str = "pymunk"
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,7 @@ class ChunkSpec:
     goals_path: str = ""  # image goals: the image-goals artifact (the targets the agent found)
     online: object = None  # --map online: the OnlineConfig (stages.online); goal_seed its goals'
     goal_seed: int = 0
+    sim: str = "pymunk"  # the simulator (navbench.sim.backends)
 
 
 def build_episode_config(overrides: dict):
@@ -150,11 +153,13 @@ def goal_key_part(cfg: NavigationConfig) -> dict:
 
 def make_cells(inputs: list[LevelInputs], cfg: NavigationConfig) -> list[Cell]:
     """All cells of the grid, in (level, noise, estimator) order."""
+    from navbench.benchmark import sim_key_part
     from navbench.pipeline.stages.online import online_key_part
 
     episode = resolved_episode_config(cfg)
-    # all {} for point goals on a given map under navbench-1 (the keys stored before them)
-    extra = {**goal_key_part(cfg), **online_key_part(cfg), **key_part(cfg.benchmark_version)}
+    # all {} for point goals on a given map under navbench-1 on pymunk (the keys stored before them)
+    extra = {**goal_key_part(cfg), **online_key_part(cfg), **key_part(cfg.benchmark_version),
+             **sim_key_part(cfg.sim)}
     cells = []
     for li in inputs:
         for noise in cfg.noise:
@@ -226,5 +231,5 @@ def chunk_jobs(inputs: list[LevelInputs], cfg: NavigationConfig, jobs: list[Epis
                                    str(Path(li.tasks.path).resolve()), cfg.camera, cfg.slice_mode,
                                    tuple(js[i:i + chunk_size]),
                                    str(Path(goals.path).resolve()) if goals is not None else "",
-                                   cfg.online, getattr(cfg.image_goal, "seed", 0)))
+                                   cfg.online, getattr(cfg.image_goal, "seed", 0), cfg.sim))
     return specs

@@ -85,6 +85,7 @@ def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str |
 
         resolve_fit_device(fit_cfg.device)
     camera = profile.camera
+    sim = getattr(profile, "sim", "pymunk")  # issue 37: views (and so the map) of the profile's simulator
     if views_key:
         stage, key = ctx.store.find(views_key, "collect-views")
         p = ctx.store.load(stage, key)
@@ -93,10 +94,11 @@ def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str |
             raise ArtifactError(f"views {key[:12]} were not collected on level {level.name} "
                                 f"(level key {level.key[:12]})")
         camera = man.get("config", {}).get("camera", camera)
+        sim = man.get("config", {}).get("sim", "pymunk")  # the held-out views of the same simulator
         views = Ref(stage, key, p / VIEWS_FILE, True, level.name)
     else:
         views = collect_views_stage(ctx, level, ViewsConfig(profile.views, camera, profile.views_seed,
-                                                            profile.views_texture))
+                                                            texture=profile.views_texture, sim=sim))
     held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed,
-                                                       profile.views_texture))
+                                                       texture=profile.views_texture, sim=sim))
     return fit_map_stage(ctx, level, views, held, cfg)

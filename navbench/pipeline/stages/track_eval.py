@@ -134,7 +134,7 @@ def _load_map_file(path: Path):
 
 #: Study-config fields added after studies were stored, with the defaults that leave them out of
 #: the cache key (so every study stored before them keeps its key).
-_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze"}
+_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze", "sim": "pymunk"}
 
 
 def study_key_config(cfg) -> dict:
