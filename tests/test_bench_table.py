@@ -38,6 +38,9 @@ PINNED_METRIC_KEYS = [
     "agent_step_ms_paper_ref05", "control_step_ms_paper_ref05",  # issue 17, part 2
     "e2e_episodes_per_min_paper_ref05",  # the paper profile's ours
     "sim_frame_texture_ratio_half", "sim_frame_texture_ratio_paper",  # issue 36: texture modes
+    # issue 36: navbench-2 beside navbench-1 in the same run
+    "agent_step_ms_paper_ref05_v2", "control_step_ms_paper_ref05_v2", "e2e_episodes_per_min_paper_ref05_v2",
+    "e2e_v2_over_v1_paper_ref05",
 ]
 #: The other top-level keys of the result (host, map, config, per-key tables ...).
 PINNED_OTHER_KEYS = {
@@ -62,6 +65,8 @@ PINNED_PROGRESS = [
     "agent step (paper, reference_scale 0.5)", "control step (paper, reference_scale 0.5)",
     "end to end (2 tasks x 1 estimators, 2 workers), paper camera, ours reference_scale 0.5",
     "simulator frame, texture modes (half)", "simulator frame, texture modes (paper)",
+    "agent step (paper, reference_scale 0.5, navbench-2)", "control step (paper, reference_scale 0.5, navbench-2)",
+    "end to end (2 tasks x 1 estimators, 2 workers), paper camera, ours reference_scale 0.5, navbench-2",
     "done",
 ]
 
@@ -70,7 +75,8 @@ def test_metric_keys_are_the_table_and_pinned():
     assert metric_keys() == [row.key for row in TABLE] == PINNED_METRIC_KEYS
     assert [t.key for t in TARGETS] == ["render_ms_paper", "track_ms_ours_paper", "control_step_hz_paper",
                                         "control_step_hz_half", "emission_ours_ratio_half", "fit_10k_steps_s",
-                                        "agent_step_ms_paper", "control_step_hz_paper"]
+                                        "agent_step_ms_paper", "control_step_hz_paper",
+                                        "agent_step_ms_paper_ref05_v2", "e2e_v2_over_v1_paper_ref05"]
 
 
 @pytest.fixture
@@ -136,11 +142,17 @@ def test_the_loop_gives_the_pinned_layout(fake_timers):
     assert n_of == {"time_sim_step": 250, "time_fit_step": 3, "time_tracking": 5, "time_control_step": 10}
     # the agent step: the control step's timer without the simulator's component
     agent = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("exclude")]
-    assert len(agent) == 3 and all(kw["exclude"] == ("sim",) for kw in agent)
-    # issue 17, part 2: the _ref05 rows pass ours' option reference_scale = 0.5, the others none
+    assert len(agent) == 4 and all(kw["exclude"] == ("sim",) for kw in agent)
+    # issue 17, part 2: the _ref05 rows pass ours' option reference_scale = 0.5, the others none;
+    # issue 36: the _v2 rows add navbench-2's settings (ours' options, the camera's texture mode)
     ref05 = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("options")]
-    assert [kw["options"] for kw in ref05] == [{"reference_scale": 0.5}] * 2
-    assert [kw.get("exclude", ()) for kw in ref05] == [("sim",), ()]
+    from navbench.benchmark import version_settings
+
+    v2 = {k.rsplit(".", 1)[1]: v for k, v in version_settings("navbench-2").items()
+          if k.startswith("navigation.options.ours.")}
+    assert v2 and [kw["options"] for kw in ref05] == [{"reference_scale": 0.5}] * 2 + [{"reference_scale": 0.5, **v2}] * 2
+    assert [kw.get("exclude", ()) for kw in ref05] == [("sim",), (), ("sim",), ()]
+    assert [kw.get("texture", "procedural") for kw in ref05] == ["procedural"] * 2 + ["table"] * 2
     assert result["e2e_episodes_per_min_paper"] == 80.0
 
 

@@ -44,10 +44,42 @@ TARGETS: tuple[Target, ...] = (
     # issue #17: the agent's own step (without the simulator's camera) and the rate with it
     Target("agent_step_ms_paper", "<=", 8.0, "agent step (render + track + plan + control), paper camera <= 8 ms"),
     Target("control_step_hz_paper", ">=", 75.0, "full control step, paper camera >= 75 Hz"),
+    # issue 36: navbench-2 against navbench-1 in the same bench run
+    Target("agent_step_ms_paper_ref05_v2", "<=", 5.0, "agent step under navbench-2, paper camera <= 5 ms"),
+    Target("e2e_v2_over_v1_paper_ref05", ">=", 2.0, "episodes a minute, navbench-2 / navbench-1 >= 2"),
 )
 
 #: ours' options of the ``_ref05`` rows (issue 17, part 2).
 REF05 = {"reference_scale": 0.5}
+
+
+def version_levers(version: str) -> tuple[dict, dict]:
+    """``(estimator options by name, episode settings)`` that benchmark ``version`` fixes
+    (:data:`navbench.benchmark.VERSION_SETTINGS`), for the bench rows that measure a version
+    beside navbench-1 in the same run."""
+    from navbench.benchmark import version_settings
+
+    options: dict = {}
+    episode: dict = {}
+    for key, value in version_settings(version).items():
+        parts = key.split(".")
+        if parts[:2] == ["navigation", "options"] and len(parts) == 4:
+            options.setdefault(parts[2], {})[parts[3]] = value
+        elif parts[:2] == ["navigation", "episode"] and len(parts) == 3:
+            episode[parts[2]] = value
+    return options, episode
+
+
+#: The version the ``_v2`` rows measure beside navbench-1 (issue 36: "the bench measures both
+#: versions side by side").
+V2 = "navbench-2"
+
+
+def _v2_ours(ctx=None) -> tuple[dict, str]:
+    """ours' options (the paper profile's ``reference_scale`` 0.5 and navbench-2's levers) and
+    the camera's texture mode under navbench-2."""
+    options, episode = version_levers(V2)
+    return {**REF05, **options.get("ours", {})}, episode.get("texture", "procedural")
 
 TRACKERS = (  # (key part, estimator name, options, label)
     ("ours", "ours", {}, "ours, default"),
@@ -192,12 +224,29 @@ def _e2e_progress(ctx: BenchContext) -> str:
     return f"end to end ({tasks} tasks x {len(est)} estimators, {_e2e_workers(ctx)} workers)"
 
 
-def _e2e_run(ctx: BenchContext, camera: str = "half", options: dict | None = None) -> timers.Throughput:
+def _e2e_run(ctx: BenchContext, camera: str = "half", options: dict | None = None,
+             episode: dict | None = None) -> timers.Throughput:
     tasks, est = e2e_plan(ctx)
     return timers.time_navigation(Path(ctx.level_file), ctx.vmap,
                                   timers.bench_tasks(ctx.level, ctx.vmap, tasks, ctx.seed + 1),
                                   est, _e2e_workers(ctx), camera=camera, noise="mid", seed=ctx.seed,
-                                  estimator_options=options)
+                                  estimator_options=options, episode=episode)
+
+
+def _e2e_run_version(ctx: BenchContext, version: str) -> timers.Throughput:
+    """The paper-camera end-to-end run with ``ours`` at ``reference_scale`` 0.5 under
+    ``version``'s settings."""
+    options, episode = version_levers(version)
+    options = {**options, "ours": {**REF05, **options.get("ours", {})}}
+    return _e2e_run(ctx, "paper", options, episode)
+
+
+def _v2_ratio(ctx: BenchContext, _n: int) -> Reading:
+    v1, v2 = ctx.value("e2e_episodes_per_min_paper_ref05"), ctx.value("e2e_episodes_per_min_paper_ref05_v2")
+    if not v1 or not v2:
+        return Reading(value=None, note="needs both end-to-end rows")
+    return Reading(value=v2 / v1, note=f"{v2:.1f} / {v1:.1f} episodes a minute, the same tasks, workers "
+                                       f"and machine in this bench run")
 
 
 #: Inputs that several rows use, built once on first use: name -> (progress label, builder).
@@ -208,6 +257,9 @@ SHARED: dict[str, tuple[Callable[[BenchContext], str], Callable[[BenchContext], 
     # the paper profile's ours (reference_scale 0.5)
     "e2e_paper_ref05": (lambda ctx: _e2e_progress(ctx) + ", paper camera, ours reference_scale 0.5",
                         lambda ctx: _e2e_run(ctx, "paper", {"ours": REF05})),
+    # the same under navbench-2's settings (its estimator options and the camera's texture mode)
+    "e2e_paper_ref05_v2": (lambda ctx: _e2e_progress(ctx) + f", paper camera, ours reference_scale 0.5, {V2}",
+                           lambda ctx: _e2e_run_version(ctx, V2)),
 }
 
 
@@ -490,6 +542,21 @@ TABLE: tuple[Measurement, ...] = (
     *(Measurement(f"sim_frame_texture_ratio_{cam}", "simulator", f"sim frame procedural / table texture, {cam}",
                   _texture_ratio(cam), unit="x", progress=f"simulator frame, texture modes ({cam})")
       for cam in CAMERA_NAMES),
+    # issue 36: navbench-2 beside navbench-1 in the same run (its levers: navbench.benchmark)
+    *(Measurement(f"{what}_ms_paper_ref05_v2", "control", f"{label} (ours, reference_scale 0.5), paper, {V2}",
+                  lambda ctx, n, ex=ex: timers.time_control_step(
+                      ctx.level, ctx.vmap, CAMERAS["paper"], n, seed=ctx.seed, budget_s=ctx.budget,
+                      exclude=ex, options=_v2_ours()[0], texture=_v2_ours()[1]),
+                  repeats=lambda n, _quick: max(n, 10), needs=_estimator_why("ours", _OURS_NA),
+                  progress=f"{label} (paper, reference_scale 0.5, {V2})",
+                  note=f"as the _ref05 row, with {V2}'s settings (ours' options and the camera's texture mode)")
+      for what, label, ex in (("agent_step", "agent step", ("sim",)), ("control_step", "control step", ()))),
+    Measurement("e2e_episodes_per_min_paper_ref05_v2", "end to end",
+                f"episodes per minute, paper camera, ours reference_scale 0.5, {V2}",
+                _e2e("episodes", "paper", "e2e_paper_ref05_v2", f", ours reference_scale 0.5, {V2}"),
+                unit="episodes/min", needs=_e2e_why, uses=("e2e_paper_ref05_v2",)),
+    Measurement("e2e_v2_over_v1_paper_ref05", "end to end", f"episodes per minute, {V2} / navbench-1",
+                _v2_ratio, unit="x", needs=_e2e_why),
 )
 
 

@@ -351,14 +351,16 @@ def bench_tasks(level, vmap, count: int, seed: int = 0) -> list:
 
 def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup: int = 3, seed: int = 0,
                       estimator: str = "ours", noise: str = "mid", budget_s: float | None = None,
-                      exclude: tuple[str, ...] = (), options: dict | None = None) -> list[float]:
+                      exclude: tuple[str, ...] = (), options: dict | None = None,
+                      texture: str = "procedural") -> list[float]:
     """One full time step of :func:`navbench.nav.episode.run_episode` with ``estimator`` (its
     default options, as navigation runs it): controller, simulator step with its RGB-D
     observation, tracking with the map render, and A* when (re)planning -- the per-step sum of
     the episode's recorded component timings. Episodes over seeded tasks run until ``repeats``
     steps are in (or ``budget_s`` is spent); one short episode of ``warmup`` steps runs first.
     ``exclude``: timing components left out of the sum (``("sim",)``: the agent's own step);
-    ``options``: the estimator's keyword options (default: none)."""
+    ``options``: the estimator's keyword options (default: none); ``texture``: the simulator
+    camera's texture mode (:mod:`navbench.sim.texels`)."""
     from dataclasses import replace
 
     from navbench.nav.episode import EpisodeConfig, run_episode
@@ -374,7 +376,8 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
     cam = intrinsics if uses_frames(estimator) else None
 
     def episode(task, max_steps: int, ep_seed: int) -> np.ndarray:
-        sim = Simulator(level, noise=noise, seed=ep_seed, intrinsics=cam, camera_height=CAMERA_HEIGHT)
+        sim = Simulator(level, noise=noise, seed=ep_seed, intrinsics=cam, camera_height=CAMERA_HEIGHT,
+                        texture=texture)
         est = make_estimator(estimator, vmap=vmap, intrinsics=intrinsics, camera_height=CAMERA_HEIGHT,
                              seed=ep_seed, **(options or {}))
         cfg = replace(EpisodeConfig(), max_steps=max_steps)
@@ -407,11 +410,12 @@ class Throughput(NamedTuple):
 
 def time_navigation(level_file: Path, vmap, tasks: list, estimators: tuple[str, ...], workers: int,
                     camera: str = "half", noise: str = "mid", seed: int = 0,
-                    estimator_options: dict | None = None) -> Throughput:
+                    estimator_options: dict | None = None, episode: dict | None = None) -> Throughput:
     """Episodes per wall-clock time through the pipeline's run-navigation stage
     (:func:`navbench.pipeline.stages.run_navigation_stage`) with a local process pool, in a
     throw-away cache and SQLite database: ``tasks`` x ``estimators`` episodes at ``noise``
-    (``estimator_options``: estimator name -> its options, as a profile's).
+    (``estimator_options``: estimator name -> its options, as a profile's; ``episode``: the
+    episode settings, as a profile's ``[navigation.episode]``).
     A warm-up pass (one 2-step episode per worker, same pool) runs first and is not timed."""
     import hashlib
 
@@ -444,7 +448,7 @@ def time_navigation(level_file: Path, vmap, tasks: list, estimators: tuple[str, 
             run_id = db.start_run(profile="bench", command="bench e2e", config={}, config_hash="")
             ctx = StageContext(store=ArtifactStore(d / "cache"), db=db)
             cfg = NavigationConfig(estimators=tuple(estimators), noise=(noise,), seeds=1, camera=camera,
-                                   estimator_options=dict(estimator_options or {}))
+                                   estimator_options=dict(estimator_options or {}), episode=dict(episode or {}))
             warm_cfg = NavigationConfig(estimators=(estimators[0],), noise=(noise,), seeds=1, camera=camera,
                                         episode={"max_steps": 2})
             with make_executor("local", workers) as ex:
