@@ -48,6 +48,10 @@ LEVEL_HEIGHT = 1.2
 CAMERA_HEIGHT = 0.5
 #: Maximum camera range (m), the paper's n * Delta = 20.
 MAX_RANGE = 20.0
+#: Shortest ``max_range`` (m) a map fit or a tracker's renderer accepts (issue 34): no depth
+#: camera reads nearer (a Kinect from ~0.5 m, a RealSense D435 from ~0.1 m), so a shorter range
+#: is a slip (0.001 for 10) that would fit and score a map on no pixel at all.
+MIN_RAY_RANGE = 0.1
 
 
 @dataclass(frozen=True)
