@@ -33,6 +33,8 @@ import importlib
 from dataclasses import is_dataclass
 from typing import Any, Iterable
 
+import numpy as np
+
 from navbench.errors import ConfigError, PluginError, TrackingError
 from navbench.plugins import ESTIMATORS_GROUP, Plugin, find_plugins
 
@@ -157,3 +159,31 @@ def make_estimator(name: str, **kwargs) -> Any:
     """Build estimator ``name``; ``kwargs`` are its constructor arguments (the pipeline passes
     ``vmap``, ``intrinsics``, ``camera_height``, ``renderer``, ``seed`` and the options)."""
     return estimator_class(name)(**kwargs)
+
+
+def checked_pose(estimator: Any, out: Any, step: int) -> np.ndarray:
+    """The pose an estimator's ``update`` returned at ``step`` (1 = the first update) as a new
+    float64 ``(3,)`` array; a :class:`TrackingError` naming the estimator (a plugin: its entry
+    point and distribution) when it is not three finite numbers. Every loop that calls
+    ``update`` reads its result through here: a NaN pose is never planned on, stored or scored,
+    and the error names the estimator, not the database that would refuse the NaN (issue 34)."""
+    try:
+        pose = np.array(out, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        pose = None
+    if pose is None or pose.shape not in ((3,), (1, 3), (3, 1)):
+        raise TrackingError(f"{_describe(estimator)}: update() at step {step} returned "
+                            f"{repr(out)[:80]}, not a pose (x, y, theta)")
+    pose = pose.reshape(3)
+    if not np.isfinite(pose).all():
+        raise TrackingError(f"{_describe(estimator)}: update() at step {step} returned a "
+                            f"non-finite pose {pose.tolist()}")
+    return pose
+
+
+def _describe(estimator: Any) -> str:
+    name = getattr(estimator, "name", None)
+    if not isinstance(name, str):
+        return f"estimator {type(estimator).__name__}"
+    plugin = None if name in BUILTIN_ESTIMATORS else _plugins().get(name)
+    return plugin.describe() if plugin is not None else f"estimator {name!r}"
