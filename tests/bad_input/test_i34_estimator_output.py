@@ -41,6 +41,11 @@ class WordEst(NanEst):
         return "here"
 
 
+class InfEst(NanEst):
+    def update(self, control, frame=None, true_pose=None):
+        return np.array([np.inf, 1.0, 0.0])
+
+
 class ShortEst(NanEst):
     def update(self, control, frame=None, true_pose=None):
         return [1.0, 2.0]
@@ -55,7 +60,7 @@ def plugin_env(tmp_path):
     (d / "probeplug-0.1.dist-info" / "METADATA").write_text("Metadata-Version: 2.1\nName: probeplug\nVersion: 0.1\n")
     (d / "probeplug-0.1.dist-info" / "entry_points.txt").write_text(
         "[navbench.estimators]\nnanest = probeplug:NanEst\nwordest = probeplug:WordEst\n"
-        "shortest = probeplug:ShortEst\n")
+        "shortest = probeplug:ShortEst\ninfest = probeplug:InfEst\n")
     (d / "probeplug.py").write_text(PLUGIN)
     root = Path(__file__).resolve().parents[2]
     return {"PYTHONPATH": os.pathsep.join([str(root), str(d)])}
@@ -63,6 +68,7 @@ def plugin_env(tmp_path):
 
 @pytest.mark.parametrize("est, shown", [
     ("nanest", "returned a non-finite pose [nan, 0.0, 0.0]"),
+    ("infest", "returned a non-finite pose [inf, 1.0, 0.0]"),  # P-003: was stored and scored
     ("wordest", "returned 'here', not a pose"),
     ("shortest", "returned [1.0, 2.0], not a pose"),
 ])
@@ -85,6 +91,25 @@ def test_a_plugin_returning_nan_fails_track_eval_in_one_line(tmp_path, plugin_en
     assert res.code == 2, res.output
     assert_clean_error(res, "plugin 'nanest'", "update() at step 1", "non-finite pose")
     assert all(n == 0 for k, n in db_row_counts(tmp_path).items() if "track" in k), db_row_counts(tmp_path)
+
+
+def test_a_plugin_returning_inf_fails_track_sequence_and_stores_no_row(project, plugin_env):
+    """P-009: track-sequence stored a row (ATE NULL) for an estimator with no finite pose."""
+    from navbench.geometry import Intrinsics
+    from navbench.levelio import load_level
+    from navbench.worldmodel.grid import grid_for_level, voxelize_level
+    from navbench.worldmodel.tum import export_views
+    from navbench.worldmodel.views import collect_views
+
+    lv = load_level(project / "levels" / "tiny.json")
+    export_views(collect_views(lv, 4, Intrinsics(16, 12, 7.5, 7.5, 8.0, 6.0), seed=0), project / "seq")
+    voxelize_level(lv, grid_for_level(lv, shape=(16, 12, 6))).save(project / "map.npz")
+    res = nb_subprocess("track-sequence", "seq", "--map", "map.npz", "--estimator", "infest",
+                        "--out", "e.txt", cwd=project, env=plugin_env, timeout=300)
+    assert res.code == 2, res.output
+    assert_clean_error(res, "plugin 'infest'", "non-finite pose [inf, 1.0, 0.0]")
+    assert not (project / "e.txt").exists()
+    assert db_row_counts(project).get("results/navbench.db:sequence_tracking", 0) == 0
 
 
 class _Bad:
