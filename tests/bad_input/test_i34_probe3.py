@@ -1,0 +1,38 @@
+"""Findings of the third blind probe (issue 34) fixed as classes: each test names its finding."""
+
+from __future__ import annotations
+
+import pytest
+import typer
+
+from tests.bad_input.conftest import assert_clean_error, assert_usage_error, nb
+
+
+def _seed_options():
+    from navbench.cli.main import app
+
+    out = []
+
+    def walk(cmd, path):
+        for name, sub in getattr(cmd, "commands", {}).items():
+            walk(sub, (*path, name))
+        for p in getattr(cmd, "params", []):
+            if "--seed" in getattr(p, "opts", ()):
+                out.append((" ".join(path), p))
+
+    walk(typer.main.get_command(app), ())
+    return out
+
+
+def test_every_seed_option_takes_exactly_the_seeds_numpy_accepts():
+    """P-011: compare --seed had no lower bound (-1 was a numpy traceback); every --seed of
+    every command is an integer in [0, 2**63 - 1], refused by click in one usage line."""
+    seeds = _seed_options()
+    assert len(seeds) >= 10, seeds
+    for path, p in seeds:
+        assert (p.min, p.max) == (0, 2**63 - 1), (path, p.min, p.max)
+
+
+@pytest.mark.parametrize("value", ["-1", str(2**63)])
+def test_compare_seed_out_of_range_is_a_usage_error(project, value):
+    assert_usage_error(nb("compare", "--seed", value, "--pair", "no-map:ours"), "--seed")
