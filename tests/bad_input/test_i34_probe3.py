@@ -36,3 +36,34 @@ def test_every_seed_option_takes_exactly_the_seeds_numpy_accepts():
 @pytest.mark.parametrize("value", ["-1", str(2**63)])
 def test_compare_seed_out_of_range_is_a_usage_error(project, value):
     assert_usage_error(nb("compare", "--seed", value, "--pair", "no-map:ours"), "--seed")
+
+
+@pytest.mark.parametrize("args", [["all", "--profile", "tiny.toml"], ["fit-map", "tiny", "--profile", "tiny.toml"],
+                                  ["cache", "ls"], ["report", "--out", "rep"]])
+def test_a_symbolic_link_loop_is_one_line_naming_the_path(project, args):
+    """P-007: results/cache as a link loop was a traceback from ``all`` (``Path.resolve()``
+    raises RuntimeError "Symlink loop"); that and the ELOOP of open/stat are one line, exit 2,
+    for every command; nothing is removed."""
+    (project / "results").mkdir()
+    (project / "results" / "cache").symlink_to("cache.loop2")
+    (project / "results" / "cache.loop2").symlink_to("cache")
+    res = nb(*args)
+    assert res.code == 2, res.output
+    assert_clean_error(res)
+    assert (project / "results" / "cache").is_symlink() and (project / "results" / "cache.loop2").is_symlink()
+
+
+def test_the_loop_runtime_error_is_read_as_eloop():
+    import errno
+
+    from navbench.cli.main import _env_oserror
+
+    try:
+        try:
+            raise RuntimeError("Symlink loop from '/x/results/cache'")
+        except RuntimeError as e:
+            raise ValueError("wrapped") from e
+    except ValueError as outer:
+        ose = _env_oserror(outer)
+    assert ose is not None and ose.errno == errno.ELOOP and ose.filename == "/x/results/cache"
+    assert _env_oserror(RuntimeError("something else")) is None
