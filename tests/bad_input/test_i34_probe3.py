@@ -67,3 +67,24 @@ def test_the_loop_runtime_error_is_read_as_eloop():
         ose = _env_oserror(outer)
     assert ose is not None and ose.errno == errno.ELOOP and ose.filename == "/x/results/cache"
     assert _env_oserror(RuntimeError("something else")) is None
+
+
+@pytest.mark.parametrize("edit, shown", [
+    (lambda t: t.update(target_x=t["start_x"], target_y=t["start_y"]), "optimal_length"),  # was 0 / 0
+    (lambda t: t.update(optimal_length=t["optimal_length"] + 5.0), "optimal_length: says"),
+    (lambda t: t.update(start_x=-3.0), "start_x, start_y"),
+])
+def test_level_difficulty_checks_the_task_file_as_run_navigation_does(project, edit, shown):
+    """P-008: level-difficulty read task files without the checks of run-navigation: a task whose
+    start is its target was a ZeroDivisionError traceback, a wrong optimal_length was measured."""
+    import json
+
+    assert nb("sample-tasks", "tiny", "--count", "3").code == 0
+    path = next((project / "tasks").glob("tiny-3-*.json"))
+    assert nb("level-difficulty", "tiny").code == 0
+    doc = json.loads(path.read_text())
+    edit(doc["tasks"][0])
+    path.write_text(json.dumps(doc))
+    res = nb("level-difficulty", "tiny")
+    assert res.code == 2, res.output
+    assert_clean_error(res, path.name, "tasks[0]", shown)

@@ -25,7 +25,7 @@ def register(app: typer.Typer) -> None:
         from navbench.errors import TaskError
         from navbench.levelio import resolve_level
         from navbench.plan.difficulty import level_difficulty
-        from navbench.plan.tasks import find_task_file, load_tasks
+        from navbench.plan.tasks import check_tasks_on_level, find_task_file, load_tasks
 
         if not levels:
             levels = sorted({p.name.rsplit("-", 2)[0] for p in Path("tasks").glob("*-*-*.json")})
@@ -34,7 +34,11 @@ def register(app: typer.Typer) -> None:
         rows = []
         for name in levels:
             level = resolve_level(name)
-            tasks = load_tasks(find_task_file(level.name))[:count]
+            path = find_task_file(level.name)
+            tasks = load_tasks(path)[:count]
+            # the checks run-navigation applies (issue 34, P-008): a start on its target, a made-up
+            # optimal_length or a wall-bound point is refused, not measured (0 / 0, made-up figures)
+            check_tasks_on_level(level, tasks, str(path))
             rows.append(level_difficulty(level, tasks).summary())
         if as_json:
             print_json(rows)
