@@ -124,8 +124,38 @@ def estimator_class(name: str) -> type:
         p = _plugins().get(name) if isinstance(name, str) else None
         if p is None:
             raise TrackingError(unknown_estimator(name))
-        cls = _CLASSES[name] = _check_class(p, p.load())
+        cls = _CLASSES[name] = _guarded(p, _check_class(p, p.load()))
     return cls
+
+
+def _guarded(p: Plugin, cls: type) -> type:
+    """A subclass of plugin class ``cls`` whose constructor, ``reset`` and ``update`` turn what
+    the plugin's code raises into one :class:`PluginError` naming the plugin, the method and
+    the exception (as a plugin's import failure is): a plugin's bug is not navbench's, and was
+    a traceback from every loop that calls it (issue 34, P-012 / P-014). navbench's own errors
+    (a :class:`NavbenchError` the plugin lets through) and Ctrl-C pass unchanged."""
+    from navbench.errors import NavbenchError
+
+    def guard(method):
+        def call(self, *args, **kwargs):
+            try:
+                out = method(self, *args, **kwargs)
+            except NavbenchError:
+                raise
+            except (Exception, SystemExit) as e:  # noqa: BLE001 - the plugin's own bug
+                first = (str(e).strip().splitlines() or [""])[0]
+                raise PluginError(f"{p.describe()}: {method.__name__}() raised "
+                                  f"{type(e).__name__}: {first}".rstrip(": ")) from e
+            if method.__name__ == "update" and not isinstance(getattr(self, "last_timing", None), dict):
+                raise PluginError(f"{p.describe()}: update() left no last_timing dict (the "
+                                  f"interface of navbench.track.base.Estimator)")
+            return out
+        call.__name__, call.__doc__ = method.__name__, method.__doc__
+        return call
+
+    ns = {m: guard(getattr(cls, m)) for m in ("__init__", "reset", "update")}
+    ns.update(__module__=cls.__module__, __qualname__=cls.__qualname__, __doc__=cls.__doc__)
+    return type(cls.__name__, (cls,), ns)
 
 
 def uses_frames(name: str) -> bool:

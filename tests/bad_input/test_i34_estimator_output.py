@@ -46,6 +46,19 @@ class InfEst(NanEst):
         return np.array([np.inf, 1.0, 0.0])
 
 
+class RaiseEst(NanEst):
+    def update(self, control, frame=None, true_pose=None):
+        raise RuntimeError("plugin bug")
+
+
+class NoTimingEst(NanEst):
+    def __init__(self, **kw):
+        self.pose = None
+
+    def update(self, control, frame=None, true_pose=None):
+        return np.asarray(self.pose)
+
+
 class ShortEst(NanEst):
     def update(self, control, frame=None, true_pose=None):
         return [1.0, 2.0]
@@ -60,8 +73,10 @@ def plugin_env(tmp_path):
     (d / "probeplug-0.1.dist-info" / "METADATA").write_text("Metadata-Version: 2.1\nName: probeplug\nVersion: 0.1\n")
     (d / "probeplug-0.1.dist-info" / "entry_points.txt").write_text(
         "[navbench.estimators]\nnanest = probeplug:NanEst\nwordest = probeplug:WordEst\n"
-        "shortest = probeplug:ShortEst\ninfest = probeplug:InfEst\n")
+        "shortest = probeplug:ShortEst\ninfest = probeplug:InfEst\nraiseest = probeplug:RaiseEst\n"
+        "notiming = probeplug:NoTimingEst\nexitest = exitplug:Est\n")
     (d / "probeplug.py").write_text(PLUGIN)
+    (d / "exitplug.py").write_text("import sys\nsys.exit(0)\n")
     root = Path(__file__).resolve().parents[2]
     return {"PYTHONPATH": os.pathsep.join([str(root), str(d)])}
 
@@ -110,6 +125,25 @@ def test_a_plugin_returning_inf_fails_track_sequence_and_stores_no_row(project, 
     assert_clean_error(res, "plugin 'infest'", "non-finite pose [inf, 1.0, 0.0]")
     assert not (project / "e.txt").exists()
     assert db_row_counts(project).get("results/navbench.db:sequence_tracking", 0) == 0
+
+
+@pytest.mark.parametrize("command, est, shown", [
+    ("run-navigation", "raiseest", "update() raised RuntimeError: plugin bug"),    # P-014
+    ("track-eval", "raiseest", "update() raised RuntimeError: plugin bug"),        # P-012
+    ("run-navigation", "notiming", "update() left no last_timing dict"),
+    ("track-eval", "exitest", "failed to load: SystemExit"),                      # P-015: was rc 0, silent
+])
+def test_a_plugin_that_raises_is_one_line_naming_it(project, plugin_env, command, est, shown):
+    """A plugin's own bug (an exception in update(), sys.exit() at import, an update() that
+    leaves no last_timing) is one line naming the plugin and the method, exit 2, as a plugin
+    failing at import already was; no episode stored."""
+    args = (["run-navigation", "--profile", "tiny.toml", "--set", "navigation.map=true"]
+            if command == "run-navigation" else
+            ["track-eval", "tiny", "--map", "true", "--steps", "3", "--trajectories", "1", "--no-store"])
+    res = nb_subprocess(*args, "--estimators", est, cwd=project, env=plugin_env, timeout=300)
+    assert res.code == 2, res.output
+    assert_clean_error(res, f"plugin {est!r}", "from probeplug 0.1", shown)
+    assert db_row_counts(project).get("results/navbench.db:episodes", 0) == 0
 
 
 class _Bad:
