@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from navbench.errors import ConfigError
-from navbench.geometry import MIN_RAY_RANGE
+from navbench.geometry import MIN_RAY_RANGE, MIN_RAY_STEP
 from navbench.names import SAFE_NAME_RULE, is_safe_name
 
 NOISE_NAMES = ("none", "low", "mid", "high", "tracking")
@@ -179,7 +179,7 @@ OPTION_RANGES: dict[str, Any] = {
     "gn_geo_iters": _int(0, 100_000), "gn_pixels": _int(1, 1_000_000),
     "yaw_search_pixels": _int(0, 1_000_000), "prior_sigma": _pos(), "off_plane_sigma": _pos(),
     "steps": _int(1, 100_000), "pixels": _int(1, 1_000_000), "threads": _int(1, MAX_WORKERS),
-    "sigma2": _pos(), "default_sigma2": _pos(), "step": _pos(), "max_range": Num(lo=MIN_RAY_RANGE),
+    "sigma2": _pos(), "default_sigma2": _pos(), "step": Num(lo=MIN_RAY_STEP), "max_range": Num(lo=MIN_RAY_RANGE),
     "pixel_scale": _pos(),
 }
 #: Ranges of LocalizerConfig fields (navbench.localize; ``[navigation] goal_localizer`` and

@@ -35,7 +35,7 @@ from typing import Callable
 import numpy as np
 
 from navbench.errors import TrackingError
-from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, MIN_RAY_RANGE, Frame, Intrinsics, camera_pose
+from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, MIN_RAY_RANGE, MIN_RAY_STEP, Frame, Intrinsics, camera_pose
 from navbench.track.base import check_update, config_from_options
 from navbench.track.lie import planar_from_camera, se3_exp
 from navbench.track.eq7 import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
@@ -70,9 +70,9 @@ class EmissionConfig:
         if not float(self.max_range) >= MIN_RAY_RANGE:
             raise TrackingError(f"max_range must be >= {MIN_RAY_RANGE:g} m (the nearest a depth camera "
                                 f"reads), got {self.max_range!r}")
-        if self.step is not None and not 0 < float(self.step) <= float(self.max_range):
-            raise TrackingError(f"step must be in (0, max_range = {self.max_range:g}] m (a ray of no "
-                                f"sample renders nothing), got {self.step!r}")
+        if self.step is not None and not MIN_RAY_STEP <= float(self.step) <= float(self.max_range):
+            raise TrackingError(f"step must be in [{MIN_RAY_STEP:g}, max_range = {self.max_range:g}] m "
+                                f"(a ray of no sample renders nothing), got {self.step!r}")
 
 
 def make_emission_config(options: dict) -> EmissionConfig:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from navbench.errors import ConfigError
-from navbench.geometry import MIN_RAY_RANGE
+from navbench.geometry import MIN_RAY_RANGE, MIN_RAY_STEP
 from navbench.worldmodel.grid import PAPER_GRID_SHAPE
 
 
@@ -59,6 +59,9 @@ class FitConfig:
         if not self.max_range >= MIN_RAY_RANGE:  # NaN too
             raise ConfigError(f"fit: max_range must be >= {MIN_RAY_RANGE:g} m (the nearest a depth "
                               f"camera reads), got {self.max_range!r}")
+        if not self.max_range / self.n_samples >= MIN_RAY_STEP:  # the map's meta['step'] (load_map)
+            raise ConfigError(f"fit: max_range / n_samples (the ray step) must be >= {MIN_RAY_STEP:g} m, "
+                              f"got {self.max_range:g} / {self.n_samples} m")
         if self.init not in ("box", "empty"):
             raise ConfigError(f"fit: unknown init {self.init!r}; choose 'box' or 'empty'")
         if not (self.device in ("cpu", "auto", "torch-cpu") or self.device.startswith("cuda")):

@@ -28,7 +28,7 @@ from typing import ClassVar
 import numpy as np
 
 from navbench.errors import ArtifactError, ConfigError
-from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE
+from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE, MIN_RAY_RANGE, MIN_RAY_STEP
 from navbench.worldmodel.gridspec import GridSpec
 
 #: Default occupancy threshold tau of eq. 1.
@@ -299,11 +299,30 @@ def _parse_header(header, path: Path) -> tuple[GridSpec, float]:
     if not np.isfinite(tau) or not np.all(np.isfinite(spec.lo + spec.hi)):
         raise ArtifactError(f"{path}: bad map header (tau {tau}, lo {list(spec.lo)}, hi "
                             f"{list(spec.hi)}: all must be finite)")
+    if not 0 < tau < 1:  # occupancy lives in [0, 1]: a tau outside never crosses, renders nothing
+        raise ArtifactError(f"{path}: bad map header (tau {tau}: must be in (0, 1))")
+    _check_meta(header.get("meta", {}), path)
     cells = int(np.prod(spec.shape, dtype=np.float64))
     if cells > MAX_MAP_CELLS:
         raise ArtifactError(f"{path}: grid {list(spec.shape)} has {cells} cells, more than the "
                             f"{MAX_MAP_CELLS} a map file may have")
     return spec, tau
+
+
+#: Ranges of the map header's ``meta`` numbers that navbench reads when it renders the map
+#: (the ray step, the render range, the emission tracker's depth scale): absent is fine, out of
+#: range is refused on load (a step of 1e-9 m hung the renderer; a range of 0 renders nothing).
+META_RANGES = {"step": (MIN_RAY_STEP, 1e6), "max_range": (MIN_RAY_RANGE, 1e6), "sigma2": (1e-9, 1e6)}
+
+
+def _check_meta(meta: dict, path: Path) -> None:
+    for k, (lo, hi) in META_RANGES.items():
+        if k not in meta:
+            continue
+        v = meta[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+            raise ArtifactError(f"{path}: bad map header (meta.{k} = {v!r}: must be a number in "
+                                f"[{lo:g}, {hi:g}])")
 
 
 def _check_declared(z, spec: GridSpec, path: Path) -> None:

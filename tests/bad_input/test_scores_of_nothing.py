@@ -174,7 +174,7 @@ def test_slice_scores_of_an_empty_raster_are_undefined_not_perfect():
 
 @pytest.mark.parametrize("options, shown", [
     (["emission.max_range=0.01"], "emission.max_range: expected a number >= 0.1"),
-    (["emission.step=5", "emission.max_range=1"], "step must be in (0, max_range = 1]"),
+    (["emission.step=5", "emission.max_range=1"], "step must be in [0.001, max_range = 1]"),
 ])
 def test_an_emission_tracker_whose_rays_have_no_sample_is_refused(tmp_path, monkeypatch, options, shown):
     """The same class for the emission tracker's renderer: a ``max_range`` below the floor, or
@@ -203,3 +203,58 @@ def test_an_emission_objective_on_a_map_whose_step_exceeds_max_range_is_refused(
     with pytest.raises(TrackingError, match="shorter than the map's ray step"):
         emission.EmissionObjective(vmap, small, 0.5, emission.EmissionConfig(max_range=1.0))
     assert emission.EmissionObjective(vmap, small, 0.5, emission.EmissionConfig(max_range=2.0)).n == 1
+
+
+def _with_header(src, dst, **changes):
+    """A copy of map file ``src`` whose JSON header has ``changes`` (``meta_KEY`` for meta)."""
+    z = dict(np.load(src))
+    h = json.loads(str(z["header"]))
+    for k, v in changes.items():
+        if k.startswith("meta_"):
+            h["meta"][k[5:]] = v
+        else:
+            h[k] = v
+    z["header"] = np.array(json.dumps(h))
+    np.savez(dst, **z)
+    return dst
+
+
+@pytest.mark.parametrize("change, shown", [
+    ({"meta_step": 1e-9}, "meta.step = 1e-09"),       # P-004: 2e10 samples per ray, a hang
+    ({"meta_step": "x"}, "meta.step = 'x'"),
+    ({"meta_max_range": 0}, "meta.max_range = 0"),    # P-010: a render range of nothing
+    ({"meta_max_range": math.nan}, "meta.max_range = nan"),
+    ({"meta_sigma2": -1.0}, "meta.sigma2 = -1.0"),
+    ({"tau": 5.0}, "tau 5.0: must be in (0, 1)"),      # occupancy in [0, 1] never crosses 5
+    ({"tau": 0.0}, "tau 0.0"),
+])
+def test_a_map_header_out_of_range_is_refused_on_load(project, change, shown):
+    """The header numbers navbench renders a map with are range-checked when the file is read,
+    for every command that reads a map file (track-sequence hung on meta.step = 1e-9)."""
+    from tests.bad_input.conftest import deadline
+    from navbench.errors import ArtifactError
+    from navbench.levelio import load_level
+    from navbench.worldmodel.grid import grid_for_level, load_map, voxelize_level
+
+    lv = load_level(project / "levels" / "tiny.json")
+    voxelize_level(lv, grid_for_level(lv, shape=(16, 12, 6))).save(project / "map.npz")
+    assert load_map(project / "map.npz").meta["step"] > 0  # the good file loads
+    bad = _with_header(project / "map.npz", project / "bad.npz", **change)
+    with pytest.raises(ArtifactError, match=r"bad\.npz: bad map header"):
+        load_map(bad)
+    (project / "seq").mkdir()
+    with deadline(60):
+        res = nb("track-sequence", "seq", "--map", "bad.npz", "--no-store", "--out", "e.txt")
+    _refused(res, "bad.npz", "bad map header", shown)
+    assert not (project / "e.txt").exists()
+
+
+def test_a_fit_whose_ray_step_is_below_the_floor_is_refused():
+    """max_range / n_samples is the fitted map's meta['step']: below 1 mm the file would not
+    load back (and its rays would take 20 000+ samples), so the fit refuses it first."""
+    from navbench.errors import ConfigError
+    from navbench.worldmodel.fit import FitConfig
+
+    with pytest.raises(ConfigError, match=r"ray step\) must be >= 0\.001"):
+        FitConfig(max_range=0.5, n_samples=1000)
+    assert FitConfig(max_range=0.5, n_samples=500).step == 0.001
