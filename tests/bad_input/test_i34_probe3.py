@@ -88,3 +88,35 @@ def test_level_difficulty_checks_the_task_file_as_run_navigation_does(project, e
     res = nb("level-difficulty", "tiny")
     assert res.code == 2, res.output
     assert_clean_error(res, path.name, "tasks[0]", shown)
+
+
+@pytest.mark.parametrize("box", [[[-1e300, -1e300, 0], [1e300, 1e300, 1.2]], [[0, 0, 0], [2e6, 5, 1.2]]])
+def test_an_absurd_views_box_is_refused_in_intrinsics_json_and_in_a_views_file(project, box):
+    """P-016: intrinsics.json's box of +-1e300 m was imported and a map fitted over it (cells
+    1e298 m wide) and scored. A box corner beyond 1e6 m is refused by import-views and by the
+    views-file loader (fit-map --views of a file written elsewhere)."""
+    import json
+
+    from navbench.errors import ArtifactError
+    from navbench.geometry import Intrinsics
+    from navbench.levelio import load_level
+    from navbench.worldmodel.tum import export_views
+    from navbench.worldmodel.views import collect_views, load_views, save_views
+
+    v = collect_views(load_level(project / "levels" / "tiny.json"), 4, Intrinsics(16, 12, 7.5, 7.5, 8.0, 6.0), seed=0)
+    seq = export_views(v, project / "seq")
+    info = json.loads((seq / "intrinsics.json").read_text())
+    info["box"] = box
+    (seq / "intrinsics.json").write_text(json.dumps(info))
+    res = nb("import-views", "seq", "--out", "v2.npz")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "intrinsics.json", "box", "within 1e+06 m")
+    assert not (project / "v2.npz").exists()
+    v.box = (tuple(map(float, box[0])), tuple(map(float, box[1])))
+    save_views(v, project / "far.npz")
+    with pytest.raises(ArtifactError, match="beyond 1e"):
+        load_views(project / "far.npz")
+    res = nb("fit-map", "--views", "far.npz", "--profile", "tiny.toml", "--device", "cpu")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "far.npz", "box")
+    assert not (project / "results" / "cache" / "fit-map").exists()
