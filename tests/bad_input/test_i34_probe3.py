@@ -120,3 +120,21 @@ def test_an_absurd_views_box_is_refused_in_intrinsics_json_and_in_a_views_file(p
     assert res.code == 2, res.output
     assert_clean_error(res, "far.npz", "box")
     assert not (project / "results" / "cache" / "fit-map").exists()
+
+
+def test_a_cache_root_that_cannot_be_created_is_one_line(project, monkeypatch):
+    """P-017: NAVBENCH_CACHE under /proc (mkdir fails with ENOENT) was a traceback from the
+    first write; the cache root is made in one place, which now names it in one line."""
+    monkeypatch.setenv("NAVBENCH_CACHE", "/proc/navbench-probe/x")
+    res = nb("fit-map", "tiny", "--profile", "tiny.toml", "--device", "cpu")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "/proc/navbench-probe/x", "cannot create the stage cache")
+
+
+def test_a_profile_that_is_a_link_loop_is_one_line(project):
+    """P-018 (the P-007 class: resolve() raises RuntimeError on a loop)."""
+    (project / "p.toml").symlink_to("p.toml.loop2")
+    (project / "p.toml.loop2").symlink_to("p.toml")
+    res = nb("all", "--profile", "p.toml")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "p.toml", "symbolic-link loop")
