@@ -272,9 +272,15 @@ def load_map(path) -> VoxelMap:
     except Exception as e:  # truncated zip, bad JSON, ...
         raise ArtifactError(f"{path}: unreadable map file ({type(e).__name__}: {e})") from None
     _check_arrays(spec, occ, col, str(path))
+    for name, a in (("occ", occ), ("col", col)):  # finite but absurd (1e30): renders as solid
+        if a.size and float(np.abs(a).max()) > MAX_MAP_VALUE:
+            raise ArtifactError(f"{path}: {name} has values beyond {MAX_MAP_VALUE:g} (occupancy is "
+                                f"about 0 in free space and 1 in solids, colours in [0, 1])")
     return VoxelMap(spec, occ.astype(np.float32), col.astype(np.float32), tau, header.get("meta", {}))
 
 
+#: Largest magnitude of a stored occupancy or colour value (a fit keeps them near [0, 1]).
+MAX_MAP_VALUE = 1e6
 #: The most cells a map file may declare (16 bytes each in memory: float32 occ + RGB col).
 MAX_MAP_CELLS = 1 << 30
 

@@ -258,3 +258,22 @@ def test_a_fit_whose_ray_step_is_below_the_floor_is_refused():
     with pytest.raises(ConfigError, match=r"ray step\) must be >= 0\.001"):
         FitConfig(max_range=0.5, n_samples=1000)
     assert FitConfig(max_range=0.5, n_samples=500).step == 0.001
+
+
+def test_a_map_with_absurd_occupancy_is_refused_on_load(project):
+    """P-013: occupancy 1e30 was loaded; localize-eval then built and cached a bank for it and
+    failed with a message not naming the file. Values beyond 1e6 are refused on load."""
+    from navbench.errors import ArtifactError
+    from navbench.levelio import load_level
+    from navbench.worldmodel.grid import grid_for_level, load_map, voxelize_level
+
+    lv = load_level(project / "levels" / "tiny.json")
+    voxelize_level(lv, grid_for_level(lv, shape=(16, 12, 6))).save(project / "map.npz")
+    z = dict(np.load(project / "map.npz"))
+    z["occ"] = np.full_like(z["occ"], 1e30)
+    np.savez(project / "bad.npz", **z)
+    with pytest.raises(ArtifactError, match=r"bad\.npz: occ has values beyond 1e\+06"):
+        load_map(project / "bad.npz")
+    res = nb("localize-eval", "tiny", "--map", "bad.npz", "--no-store")
+    _refused(res, "bad.npz", "occ has values beyond")
+    assert not (project / "results" / "cache" / "localize-bank").exists()
