@@ -21,6 +21,7 @@ from pathlib import Path
 import typer
 
 from navbench import __version__
+from navbench.cli import _interrupted_during_import
 
 app = typer.Typer(
     name="navbench",
@@ -304,9 +305,12 @@ def main(argv: list[str] | None = None) -> None:
     moment (exit 130, even when it arrived inside a compiled kernel), and a full disk,
     read-only folder or a file where a folder belongs (exit 2, naming the path)."""
     import os
+    import signal
 
     from navbench.errors import NavbenchError
 
+    if signal.getsignal(signal.SIGINT) is _interrupted_during_import:  # the imports are done
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     _sanitise_env(os.environ)
     sys.unraisablehook = _unraisable_hook
     problem = _env_problem(os.environ)

@@ -138,3 +138,38 @@ def test_a_profile_that_is_a_link_loop_is_one_line(project):
     res = nb("all", "--profile", "p.toml")
     assert res.code == 2, res.output
     assert_clean_error(res, "p.toml", "symbolic-link loop")
+
+
+def test_ctrl_c_while_the_cli_is_still_importing_is_one_line(project):
+    """P-006: Ctrl-C in the first second (while ``navbench.cli.main`` imports typer, the
+    commands and the bundled profiles) was a KeyboardInterrupt traceback and death by SIGINT;
+    it is now the same ``interrupted`` line and exit 130 as later. SIGINT is set to its default
+    action in the child, as in a terminal (a background job of a script ignores it)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    for delay in (0.15, 0.3, 0.5):
+        p = subprocess.Popen([sys.executable, "-m", "navbench.cli.main", "cache", "ls"], cwd=project,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        time.sleep(delay)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=60)
+        assert "Traceback" not in err, (delay, err)
+        if p.returncode != 0:  # 0: it finished before the signal came (a fast machine)
+            assert p.returncode == 130 and err.strip().splitlines()[-1] == "interrupted", (delay, p.returncode, err)
+
+
+def test_a_library_import_keeps_its_own_ctrl_c():
+    """The early handler is the navbench command's only: importing the CLI elsewhere (here,
+    pytest) leaves SIGINT alone."""
+    import signal
+
+    import navbench.cli.main  # noqa: F401
+
+    assert signal.getsignal(signal.SIGINT) is not navbench.cli._interrupted_during_import
