@@ -439,6 +439,8 @@ def _make(arrays, intr, cam_h, level, seed, box, meta, where) -> Views:
     v.poses, v.rgb, v.depth, v.valid = (arrays[k] for k in _ARRAYS)
     v.intrinsics, v.camera_height, v.level, v.seed, v.box, v.meta = intr, cam_h, level, seed, box, meta
     validate_views(v, where)
+    if len(v) == 0:  # every command needs a view; the message names the file (P-019)
+        raise ArtifactError(f"{where}: holds no views")
     return v
 
 

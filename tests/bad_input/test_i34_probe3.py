@@ -173,3 +173,36 @@ def test_a_library_import_keeps_its_own_ctrl_c():
     import navbench.cli.main  # noqa: F401
 
     assert signal.getsignal(signal.SIGINT) is not navbench.cli._interrupted_during_import
+
+
+def test_level_difficulty_refuses_a_task_file_of_another_level(project):
+    """P-008 addendum: a task file saying "level": "other" was measured on this level."""
+    import json
+
+    assert nb("sample-tasks", "tiny", "--count", "3").code == 0
+    path = next((project / "tasks").glob("tiny-3-*.json"))
+    doc = json.loads(path.read_text())
+    doc["level"] = "house-2"
+    path.write_text(json.dumps(doc))
+    res = nb("level-difficulty", "tiny")
+    assert res.code == 2, res.output
+    assert_clean_error(res, path.name, "level: says 'house-2'")
+
+
+def test_an_empty_views_file_is_refused_naming_it(project):
+    """P-019: a views file of 0 views was refused by export-views naming the level inside, not
+    the file; every reader of views files now refuses it on load, naming the file."""
+    import numpy as np
+
+    from navbench.geometry import Intrinsics
+    from navbench.levelio import load_level
+    from navbench.worldmodel.views import collect_views, save_views
+
+    v = collect_views(load_level(project / "levels" / "tiny.json"), 2, Intrinsics(16, 12, 7.5, 7.5, 8.0, 6.0), seed=0)
+    save_views(v.subset(np.zeros(0, dtype=np.int64)), project / "empty.npz")
+    for args in (["export-views", "empty.npz", "exv"],
+                 ["fit-map", "--views", "empty.npz", "--profile", "tiny.toml", "--device", "cpu"]):
+        res = nb(*args)
+        assert res.code == 2, res.output
+        assert_clean_error(res, "empty.npz", "holds no views")
+    assert not (project / "exv").exists()
