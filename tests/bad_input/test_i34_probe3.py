@@ -206,3 +206,26 @@ def test_an_empty_views_file_is_refused_naming_it(project):
         assert res.code == 2, res.output
         assert_clean_error(res, "empty.npz", "holds no views")
     assert not (project / "exv").exists()
+
+
+def test_a_refused_run_adds_to_its_cache_ref_never_replaces_it(project):
+    """P-005: a run-navigation refused part-way (here: a map file that does not load) rewrote
+    ``refs/run-navigation-<profile>.json`` with the few entries it had touched, so the last
+    finished run's episodes and task set lost gc's protection. An unfinished run now adds to
+    the ref; a finished one replaces it."""
+    import json
+
+    args = ["run-navigation", "--profile", "tiny.toml", "--estimators", "gt"]
+    assert nb(*args, "--set", "navigation.map=true").code == 0
+    ref = project / "results" / "cache" / "refs" / "run-navigation-tinytest.json"
+    before = {tuple(x) for x in json.loads(ref.read_text())["artifacts"]}
+    assert any(s == "episode" for s, _ in before)
+    (project / "bad.npz").write_text("not a map")
+    res = nb(*args, "--set", "navigation.map=bad.npz")
+    assert res.code == 2, res.output
+    after = {tuple(x) for x in json.loads(ref.read_text())["artifacts"]}
+    assert before <= after, sorted(before - after)
+    dry = nb("cache", "gc", "--keep-newest", "0", "--dry-run")
+    assert dry.code == 0, dry.output
+    for stage, key in before:
+        assert key[:12] not in dry.out, (stage, key, dry.out)
