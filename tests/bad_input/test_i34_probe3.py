@@ -229,3 +229,24 @@ def test_a_refused_run_adds_to_its_cache_ref_never_replaces_it(project):
     assert dry.code == 0, dry.output
     for stage, key in before:
         assert key[:12] not in dry.out, (stage, key, dry.out)
+
+
+@pytest.mark.parametrize("option, value", [("--max-tilt", "1e300"), ("--max-tilt", "181"),
+                                           ("--max-dt", "1e300"), ("--max-height-dev", "1e9"),
+                                           ("--fx", "1e300"), ("--cx", "-1e300")])
+def test_absurd_import_tolerances_are_refused(project, option, value):
+    """P-020: --max-tilt 1e300 silently disabled the tilt check; the import options now have
+    the bound of every float setting (1e6; a tilt at most 180 degrees)."""
+    (project / "seq").mkdir()
+    res = nb("import-views", "seq", "--out", "v.npz", option, value)
+    assert res.code == 2, res.output
+    assert_clean_error(res, option)
+
+
+def test_report_levels_that_is_a_file_is_refused(project):
+    """P-020: report --levels FILE was ignored (rc 0, a report without the level figures)."""
+    (project / "notlevels.txt").write_text("x")
+    res = nb("report", "--levels", "notlevels.txt", "--out", "rep")
+    assert res.code == 2, res.output
+    assert_clean_error(res, "--levels", "not a folder")
+    assert not (project / "rep").exists()
