@@ -48,6 +48,14 @@ LEVEL_HEIGHT = 1.2
 CAMERA_HEIGHT = 0.5
 #: Maximum camera range (m), the paper's n * Delta = 20.
 MAX_RANGE = 20.0
+#: Shortest ``max_range`` (m) a map fit or a tracker's renderer accepts (issue 34): no depth
+#: camera reads nearer (a Kinect from ~0.5 m, a RealSense D435 from ~0.1 m), so a shorter range
+#: is a slip (0.001 for 10) that would fit and score a map on no pixel at all.
+MIN_RAY_RANGE = 0.1
+#: Shortest ray sample spacing (m) of a map's renderer (``meta['step']``, a fit's
+#: ``max_range / n_samples``, a tracker's ``step``): 20 000 samples over MAX_RANGE; a map file
+#: saying 1e-9 marched 2e10 samples per ray (a hang, issue 34).
+MIN_RAY_STEP = 1e-3
 
 
 @dataclass(frozen=True)

@@ -51,7 +51,8 @@ class Plugin:
             obj = importlib.import_module(module.strip())
             for part in filter(None, attr.strip().split(".")):
                 obj = getattr(obj, part)
-        except Exception as e:  # noqa: BLE001 - whatever a plugin raises at import is its own bug
+        except (Exception, SystemExit) as e:  # noqa: BLE001 - whatever a plugin raises at import
+            # is its own bug; sys.exit() at import too (it ended navbench silently, exit 0: P-015)
             first = (str(e).strip().splitlines() or [""])[0]
             raise PluginError(f"{self.describe()} failed to load: "
                               f"{type(e).__name__}: {first}".rstrip(": ")) from e

@@ -39,17 +39,19 @@ def import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
     from navbench.errors import ConfigError
     from navbench.pipeline.stages.imported import ImportOptions
 
+    from navbench.pipeline.checks import MAX_FLOAT  # finite but absurd (issue 34, P-020)
+
     for name, v in (("--fx", fx), ("--fy", fy), ("--camera-height", camera_height),
                     ("--depth-scale", depth_scale)):
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise ConfigError(f"{name} must be a positive finite number, got {v:g}")
+        if v is not None and not (math.isfinite(v) and 0 < v <= MAX_FLOAT):
+            raise ConfigError(f"{name} must be a positive finite number <= {MAX_FLOAT:g}, got {v:g}")
     for name, v in (("--cx", cx), ("--cy", cy)):
-        if v is not None and not math.isfinite(v):
-            raise ConfigError(f"{name} must be a finite number (px), got {v:g}")
-    for name, v, unit in (("--max-dt", max_dt, "seconds"), ("--max-tilt", max_tilt, "degrees"),
-                          ("--max-height-dev", max_height_dev, "metres")):
-        if not (math.isfinite(v) and v >= 0):
-            raise ConfigError(f"{name} must be a finite number of {unit} >= 0, got {v:g}")
+        if v is not None and not (math.isfinite(v) and abs(v) <= MAX_FLOAT):
+            raise ConfigError(f"{name} must be a finite number (px) of magnitude <= {MAX_FLOAT:g}, got {v:g}")
+    for name, v, unit, hi in (("--max-dt", max_dt, "seconds", MAX_FLOAT), ("--max-tilt", max_tilt, "degrees", 180.0),
+                              ("--max-height-dev", max_height_dev, "metres", MAX_FLOAT)):
+        if not (math.isfinite(v) and 0 <= v <= hi):
+            raise ConfigError(f"{name} must be a finite number of {unit} in [0, {hi:g}], got {v:g}")
     if fx is None:
         given = [n for n, v in (("--fy", fy), ("--cx", cx), ("--cy", cy)) if v is not None]
         if given:

@@ -21,6 +21,7 @@ from pathlib import Path
 import typer
 
 from navbench import __version__
+from navbench.cli import _interrupted_during_import
 
 app = typer.Typer(
     name="navbench",
@@ -161,7 +162,8 @@ def _click_kind(e: BaseException) -> str | None:
 #: OSError numbers that the environment causes, not a bug: a full disk or quota, a read-only
 #: or forbidden folder, a path component that is a file (``results/cache`` replaced by one).
 _ENV_ERRNOS = {errno.ENOSPC, getattr(errno, "EDQUOT", -1), errno.EROFS, errno.EACCES, errno.EPERM,
-               errno.ENOTDIR, errno.EISDIR, errno.EEXIST, errno.EMFILE, errno.ENFILE, errno.ENAMETOOLONG}
+               errno.ENOTDIR, errno.EISDIR, errno.EEXIST, errno.EMFILE, errno.ENFILE, errno.ENAMETOOLONG,
+               errno.ELOOP}
 
 
 def _chain(e: BaseException):
@@ -181,10 +183,17 @@ def _interrupted(e: BaseException) -> bool:
 
 
 def _env_oserror(e: BaseException) -> OSError | None:
-    """The environment's OSError (disk full, read-only, not a directory, ...) behind ``e``."""
+    """The environment's OSError (disk full, read-only, not a directory, a symbolic-link loop,
+    ...) behind ``e``. ``Path.resolve()`` reports a link loop as a RuntimeError ("Symlink loop
+    from '...'"), turned here into the ELOOP it is."""
+    import re
+
     for x in _chain(e):
         if isinstance(x, OSError) and x.errno in _ENV_ERRNOS:
             return x
+        m = re.fullmatch(r"Symlink loop from (['\"])(.*)\1", str(x)) if type(x) is RuntimeError else None
+        if m:
+            return OSError(errno.ELOOP, "a symbolic-link loop", m.group(2))
     return None
 
 
@@ -296,9 +305,12 @@ def main(argv: list[str] | None = None) -> None:
     moment (exit 130, even when it arrived inside a compiled kernel), and a full disk,
     read-only folder or a file where a folder belongs (exit 2, naming the path)."""
     import os
+    import signal
 
     from navbench.errors import NavbenchError
 
+    if signal.getsignal(signal.SIGINT) is _interrupted_during_import:  # the imports are done
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     _sanitise_env(os.environ)
     sys.unraisablehook = _unraisable_hook
     problem = _env_problem(os.environ)
@@ -331,8 +343,10 @@ def main(argv: list[str] | None = None) -> None:
         ose = _env_oserror(e)
         if ose is not None:
             where = ose.filename if ose.filename is not None else "navbench"
+            fix = ("replace the link" if ose.errno == errno.ELOOP
+                   else "free space or fix the folder's permissions")
             _fail(f"{where}: {ose.strerror or os.strerror(ose.errno)} (nothing was stored for the "
-                  "step that failed; free space or fix the folder's permissions and rerun)")
+                  f"step that failed; {fix} and rerun)")
         raise
     # with standalone_mode=False, click returns typer.Exit(n)'s code; typer >= 0.29 turns a
     # KeyboardInterrupt into Exit(130) and returns 130 without a word (commands that report

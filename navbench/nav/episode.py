@@ -37,6 +37,7 @@ from navbench.geometry import AGENT_LENGTH
 from navbench.nav.controller import ControllerConfig, controller_step
 from navbench.nav.timing import TIMING_KEYS
 from navbench.plan.astar import PlannerConfig, PlannerMap, cached_planner_map, plan_on_map
+from navbench.track.registry import checked_pose
 
 END_REASONS = ("reached", "step-limit", "stuck", "no-plan")
 
@@ -177,7 +178,8 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
         true_pose = np.asarray(res.pose, dtype=np.float64).copy()
 
         t0 = time.perf_counter()
-        est = np.asarray(estimator.update(control, res.frame, true_pose=true_pose), dtype=np.float64).reshape(3).copy()
+        est = checked_pose(estimator, estimator.update(control, res.frame, true_pose=true_pose),
+                           len(controls) + 1)
         est_ms = (time.perf_counter() - t0) * 1e3
         lt = estimator.last_timing
         render_ms = float(lt.get("render", 0.0))

@@ -48,6 +48,7 @@ from navbench.nav.episode import EpisodeRecord
 from navbench.nav.stop import GoalStopper, StopConfig
 from navbench.plan.astar import plan_path
 from navbench.plan.explore import Explorer, ExplorerConfig, seen_free
+from navbench.track.registry import checked_pose
 
 END_REASONS = ("stopped", "step-limit", "stuck", "explored")
 
@@ -354,7 +355,8 @@ def run_unknown_image_episode(level, start, goal: Frame, config: ImageNavConfig 
         res = sim.step(control)
         t1 = time.perf_counter()
         poses.append(np.asarray(res.pose, np.float64).copy())
-        pose = poses[-1].copy() if tracker is None else np.asarray(tracker.update(control, res.frame), np.float64).copy()
+        pose = (poses[-1].copy() if tracker is None
+                else checked_pose(tracker, tracker.update(control, res.frame), len(controls) + 1))
         beliefs.append(pose.copy())
         controls.append((float(control.turn), float(control.direction), float(control.speed)))
         mapper.update(pose, res.frame)

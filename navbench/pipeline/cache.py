@@ -263,15 +263,26 @@ class ArtifactStore:
         shutil.rmtree(bad, ignore_errors=True)
 
     # ------------------------------------------------------------------ refs (gc roots)
-    def set_ref(self, name: str, keys: Iterable[tuple[str, str]]) -> Path:
-        """Record ``(stage, key)`` pairs used by the latest run called ``name`` (a gc root)."""
+    def set_ref(self, name: str, keys: Iterable[tuple[str, str]], merge: bool = False) -> Path:
+        """Record ``(stage, key)`` pairs used by the latest run called ``name`` (a gc root).
+
+        ``merge``: add them to what the ref holds instead of replacing it: a run that failed,
+        was refused or was interrupted touched only part of its inputs, and replacing the ref
+        with those would leave the last finished run's other entries unprotected from gc
+        (issue 34, P-005). A ref that cannot be read is replaced."""
         ensure_root(self.root)
         d = self.root / REFS_DIR
         d.mkdir(parents=True, exist_ok=True)
         from navbench.outpath import write_text_atomic
 
+        keys = {(s, k) for s, k in keys}
+        if merge and (d / f"{name}.json").exists():
+            try:
+                keys |= set(read_ref(d / f"{name}.json"))
+            except ArtifactError:
+                pass
         return write_text_atomic(d / f"{name}.json", json.dumps(
-            {"name": name, "updated": time.time(), "artifacts": sorted({(s, k) for s, k in keys})}, indent=1))
+            {"name": name, "updated": time.time(), "artifacts": sorted(keys)}, indent=1))
 
     def refs(self) -> dict[str, list[tuple[str, str]]]:
         """All ref files: name -> list of ``(stage, key)``. A ref that cannot be read (not a

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from navbench.errors import ConfigError
+from navbench.geometry import MIN_RAY_RANGE, MIN_RAY_STEP
 from navbench.names import SAFE_NAME_RULE, is_safe_name
 
 NOISE_NAMES = ("none", "low", "mid", "high", "tracking")
@@ -155,7 +156,7 @@ FIT_RANGES: dict[str, Any] = {
     "lr": Num(lo=0, hi=10, open_lo=True), "sigma2_init": _pos(), "sigma2_lr": Num(lo=0, hi=10),
     "min_sigma2": _pos(),
     "images_per_batch": _int(1, 100_000), "pixels_per_image": _int(1, 1_000_000),
-    "grid_shape": _int(1, 65_536), "margin_z": Num(lo=0), "max_range": _pos(),
+    "grid_shape": _int(1, 65_536), "margin_z": Num(lo=0), "max_range": Num(lo=MIN_RAY_RANGE),
     "n_samples": _int(1, 100_000), "tau": Num(lo=0, hi=1, open_lo=True, open_hi=True),
     "init_free": Num(lo=0, hi=1), "init_solid": Num(lo=0, hi=1), "init_colour": Num(lo=0, hi=1),
     "free_space_weight": Num(lo=0), "free_space_samples": _int(0, 1000),
@@ -179,7 +180,7 @@ OPTION_RANGES: dict[str, Any] = {
     "gn_geo_iters": _int(0, 100_000), "gn_pixels": _int(1, 1_000_000),
     "yaw_search_pixels": _int(0, 1_000_000), "prior_sigma": _pos(), "off_plane_sigma": _pos(),
     "steps": _int(1, 100_000), "pixels": _int(1, 1_000_000), "threads": _int(1, MAX_WORKERS),
-    "sigma2": _pos(), "default_sigma2": _pos(), "step": _pos(), "max_range": _pos(),
+    "sigma2": _pos(), "default_sigma2": _pos(), "step": Num(lo=MIN_RAY_STEP), "max_range": Num(lo=MIN_RAY_RANGE),
     "pixel_scale": _pos(),
 }
 #: Ranges of LocalizerConfig fields (navbench.localize; ``[navigation] goal_localizer`` and

@@ -69,7 +69,13 @@ def ensure_root(root: Path) -> None:
         fresh = not root.exists() or (root.is_dir() and not any(root.iterdir()))
     except OSError:
         fresh = False
-    root.mkdir(parents=True, exist_ok=True)
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as e:  # a parent that cannot be made (/proc/x, a file, a loop): one line (P-017)
+        from navbench.errors import ArtifactError
+
+        raise ArtifactError(f"{root}: cannot create the stage cache here ({e.strerror or e}; "
+                            f"set --cache / NAVBENCH_CACHE to a folder that can be created)") from None
     if fresh:
         write_marker(root)
 

@@ -145,8 +145,8 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     finally:
         if status is not None:
             db.finish_run(run_id, status)
-        if ctx is not None and ref_name and ctx.used:
-            ctx.store.set_ref(ref_name, ctx.used)
+        if ctx is not None and ref_name and ctx.used:  # an unfinished run adds, never replaces
+            ctx.store.set_ref(ref_name, ctx.used, merge=status != "done")
 
 
 def navigation_config(profile: "Profile"):
@@ -345,14 +345,16 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
         # finished; a report that fails marks it failed (or interrupted) after all.
         report = None
         if until == "report":
+            failed = True
             try:
                 report = report_stage(ctx, summary.cells, score, preset=prof.scoring_preset)
+                failed = False
             except BaseException as e:
                 rdb.finish_run(run_id, "interrupted" if isinstance(e, KeyboardInterrupt) else "failed")
                 raise
             finally:
                 if ctx.used:
-                    ctx.store.set_ref(ref, ctx.used)
+                    ctx.store.set_ref(ref, ctx.used, merge=failed)
         # Where the time went, the report stage included: stored with the (finished) run.
         breakdown = breakdown_rows(ctx.timings, summary, summary.seconds, summary.workers)
         rdb.add_run_timings(run_id, breakdown)

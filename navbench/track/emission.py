@@ -35,7 +35,7 @@ from typing import Callable
 import numpy as np
 
 from navbench.errors import TrackingError
-from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, Frame, Intrinsics, camera_pose
+from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, MAX_RANGE, MIN_RAY_RANGE, MIN_RAY_STEP, Frame, Intrinsics, camera_pose
 from navbench.track.base import check_update, config_from_options
 from navbench.track.lie import planar_from_camera, se3_exp
 from navbench.track.eq7 import _TRACKING_NOISE, PARAMS, _rays_flat, pixel_table
@@ -66,6 +66,13 @@ class EmissionConfig:
             raise TrackingError(f"unknown param {self.param!r}; choose one of {PARAMS}")
         if int(self.steps) < 1 or int(self.pixels) < 1:
             raise TrackingError("steps and pixels must be >= 1")
+        # a ray with no sample renders nothing: a tracker that sees nothing is not scored (issue 34)
+        if not float(self.max_range) >= MIN_RAY_RANGE:
+            raise TrackingError(f"max_range must be >= {MIN_RAY_RANGE:g} m (the nearest a depth camera "
+                                f"reads), got {self.max_range!r}")
+        if self.step is not None and not MIN_RAY_STEP <= float(self.step) <= float(self.max_range):
+            raise TrackingError(f"step must be in [{MIN_RAY_STEP:g}, max_range = {self.max_range:g}] m "
+                                f"(a ray of no sample renders nothing), got {self.step!r}")
 
 
 def make_emission_config(options: dict) -> EmissionConfig:
@@ -112,6 +119,9 @@ class EmissionObjective:
         self.render_rays = vmap.ray_renderer(cfg.step, cfg.max_range)
         self.step = self.render_rays.step
         self.n = self.render_rays.n
+        if self.n < 1:  # the map's own step (meta['step']) is longer than max_range
+            raise TrackingError(f"the 'emission' estimator: max_range = {cfg.max_range:g} m is shorter "
+                                f"than the map's ray step ({self.step:g} m): its rays render nothing")
         s2 = cfg.sigma2 if cfg.sigma2 is not None else vmap.meta.get("sigma2", cfg.default_sigma2)
         self.sigma2 = torch.tensor(float(s2), dtype=torch.float32)
 

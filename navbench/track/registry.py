@@ -33,6 +33,8 @@ import importlib
 from dataclasses import is_dataclass
 from typing import Any, Iterable
 
+import numpy as np
+
 from navbench.errors import ConfigError, PluginError, TrackingError
 from navbench.plugins import ESTIMATORS_GROUP, Plugin, find_plugins
 
@@ -122,8 +124,38 @@ def estimator_class(name: str) -> type:
         p = _plugins().get(name) if isinstance(name, str) else None
         if p is None:
             raise TrackingError(unknown_estimator(name))
-        cls = _CLASSES[name] = _check_class(p, p.load())
+        cls = _CLASSES[name] = _guarded(p, _check_class(p, p.load()))
     return cls
+
+
+def _guarded(p: Plugin, cls: type) -> type:
+    """A subclass of plugin class ``cls`` whose constructor, ``reset`` and ``update`` turn what
+    the plugin's code raises into one :class:`PluginError` naming the plugin, the method and
+    the exception (as a plugin's import failure is): a plugin's bug is not navbench's, and was
+    a traceback from every loop that calls it (issue 34, P-012 / P-014). navbench's own errors
+    (a :class:`NavbenchError` the plugin lets through) and Ctrl-C pass unchanged."""
+    from navbench.errors import NavbenchError
+
+    def guard(method):
+        def call(self, *args, **kwargs):
+            try:
+                out = method(self, *args, **kwargs)
+            except NavbenchError:
+                raise
+            except (Exception, SystemExit) as e:  # noqa: BLE001 - the plugin's own bug
+                first = (str(e).strip().splitlines() or [""])[0]
+                raise PluginError(f"{p.describe()}: {method.__name__}() raised "
+                                  f"{type(e).__name__}: {first}".rstrip(": ")) from e
+            if method.__name__ == "update" and not isinstance(getattr(self, "last_timing", None), dict):
+                raise PluginError(f"{p.describe()}: update() left no last_timing dict (the "
+                                  f"interface of navbench.track.base.Estimator)")
+            return out
+        call.__name__, call.__doc__ = method.__name__, method.__doc__
+        return call
+
+    ns = {m: guard(getattr(cls, m)) for m in ("__init__", "reset", "update")}
+    ns.update(__module__=cls.__module__, __qualname__=cls.__qualname__, __doc__=cls.__doc__)
+    return type(cls.__name__, (cls,), ns)
 
 
 def uses_frames(name: str) -> bool:
@@ -157,3 +189,31 @@ def make_estimator(name: str, **kwargs) -> Any:
     """Build estimator ``name``; ``kwargs`` are its constructor arguments (the pipeline passes
     ``vmap``, ``intrinsics``, ``camera_height``, ``renderer``, ``seed`` and the options)."""
     return estimator_class(name)(**kwargs)
+
+
+def checked_pose(estimator: Any, out: Any, step: int) -> np.ndarray:
+    """The pose an estimator's ``update`` returned at ``step`` (1 = the first update) as a new
+    float64 ``(3,)`` array; a :class:`TrackingError` naming the estimator (a plugin: its entry
+    point and distribution) when it is not three finite numbers. Every loop that calls
+    ``update`` reads its result through here: a NaN pose is never planned on, stored or scored,
+    and the error names the estimator, not the database that would refuse the NaN (issue 34)."""
+    try:
+        pose = np.array(out, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        pose = None
+    if pose is None or pose.shape not in ((3,), (1, 3), (3, 1)):
+        raise TrackingError(f"{_describe(estimator)}: update() at step {step} returned "
+                            f"{repr(out)[:80]}, not a pose (x, y, theta)")
+    pose = pose.reshape(3)
+    if not np.isfinite(pose).all():
+        raise TrackingError(f"{_describe(estimator)}: update() at step {step} returned a "
+                            f"non-finite pose {pose.tolist()}")
+    return pose
+
+
+def _describe(estimator: Any) -> str:
+    name = getattr(estimator, "name", None)
+    if not isinstance(name, str):
+        return f"estimator {type(estimator).__name__}"
+    plugin = None if name in BUILTIN_ESTIMATORS else _plugins().get(name)
+    return plugin.describe() if plugin is not None else f"estimator {name!r}"

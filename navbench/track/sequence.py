@@ -14,6 +14,7 @@ import numpy as np
 
 from navbench.geometry import Frame
 from navbench.track.odometry import OdometryIncrement
+from navbench.track.registry import checked_pose
 
 
 @dataclass
@@ -51,7 +52,8 @@ def track_frames(estimator, views, start_pose, increments) -> SequenceTrack:
     for t in range(n - 1):
         frame = frame_at(views, t + 1)
         t0 = time.perf_counter()
-        est[t + 1] = estimator.update(OdometryIncrement(*(float(v) for v in inc[t])), frame)
+        est[t + 1] = checked_pose(estimator, estimator.update(
+            OdometryIncrement(*(float(v) for v in inc[t])), frame), t + 1)
         step[t] = (time.perf_counter() - t0) * 1e3
         render[t] = estimator.last_timing.get("render", 0.0)
         estimate[t] = estimator.last_timing.get("estimate", 0.0)

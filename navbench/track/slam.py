@@ -27,6 +27,7 @@ import numpy as np
 
 from navbench.errors import ConfigError
 from navbench.geometry import CAMERA_HEIGHT, Frame, Intrinsics
+from navbench.track.registry import checked_pose
 from navbench.worldmodel.fusion import FusedMap
 from navbench.worldmodel.fusion_render import FusedRenderer
 
@@ -59,6 +60,7 @@ class OnlineMapping:
         self.intrinsics = intrinsics
         self.camera_height = float(camera_height)
         self.last_timing: dict[str, float] = {}
+        self.steps = 0  # updates since reset (named when the estimator returns no pose)
 
     @property
     def pose(self):
@@ -73,9 +75,11 @@ class OnlineMapping:
         self.fused.fuse(frame0, np.asarray(pose0, np.float64), self.intrinsics, self.camera_height)
         self.estimator.reset(pose0, frame0)
         self.last_timing = {}
+        self.steps = 0
 
     def update(self, control: Any, frame: Frame, true_pose=None) -> np.ndarray:
-        est = np.asarray(self.estimator.update(control, frame, None), np.float64)
+        self.steps += 1
+        est = checked_pose(self.estimator, self.estimator.update(control, frame, None), self.steps)
         t0 = time.perf_counter()
         self.fused.fuse(frame, est, self.intrinsics, self.camera_height)
         ms = (time.perf_counter() - t0) * 1e3

@@ -34,6 +34,7 @@ import numpy as np
 
 from navbench.errors import ConfigError
 from navbench.geometry import AGENT_LENGTH, CAMERA_HEIGHT, wrap_angle
+from navbench.track.registry import checked_pose
 
 DEFAULT_ESTIMATORS = ("ours", "emission", "no-map", "dynamics", "gt")
 
@@ -313,7 +314,7 @@ def _replay(level, vmap, config, trajectories, progress, health_thresholds, came
                 rec = per[(name, s)]
                 if body:
                     u = body_control(traj.controls[t], traj.true_poses[t, 2], rec["est"][n, t, 2])
-                e = est.update(u, frame, traj.true_poses[t + 1].copy())
+                e = checked_pose(est, est.update(u, frame, traj.true_poses[t + 1].copy()), t + 1)
                 rec["est"][n, t + 1] = e
                 rec["render"][n, t] = est.last_timing.get("render", 0.0)
                 rec["estimate"][n, t] = est.last_timing.get("estimate", 0.0)

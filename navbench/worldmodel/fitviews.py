@@ -15,6 +15,7 @@ from typing import Callable
 
 from navbench.worldmodel.evaluate import evaluate_map
 from navbench.worldmodel.fit import FitConfig, fit_map
+from navbench.worldmodel.fitconfig import require_depth_within
 from navbench.worldmodel.grid import check_fitted_finite
 from navbench.worldmodel.views import Views, heldout_split
 
@@ -39,6 +40,7 @@ def fit_views(views: Views, config: FitConfig, heldout: Views | None = None,
         split = f"every {int(heldout_every)}"
     else:
         train, held, split = views, heldout, "given"
+    require_depth_within(held, config.max_range, "the held-out views")  # else a score of nothing
     vmap, metrics = fit_map(train, config, progress=progress)
     check_fitted_finite(vmap, metrics, config)
     out = {**dict(metrics), **evaluate_map(vmap, level, held)}

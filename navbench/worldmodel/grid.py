@@ -28,7 +28,7 @@ from typing import ClassVar
 import numpy as np
 
 from navbench.errors import ArtifactError, ConfigError
-from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE
+from navbench.geometry import CAMERA_HEIGHT, MAX_RANGE, MIN_RAY_RANGE, MIN_RAY_STEP
 from navbench.worldmodel.gridspec import GridSpec
 
 #: Default occupancy threshold tau of eq. 1.
@@ -272,9 +272,15 @@ def load_map(path) -> VoxelMap:
     except Exception as e:  # truncated zip, bad JSON, ...
         raise ArtifactError(f"{path}: unreadable map file ({type(e).__name__}: {e})") from None
     _check_arrays(spec, occ, col, str(path))
+    for name, a in (("occ", occ), ("col", col)):  # finite but absurd (1e30): renders as solid
+        if a.size and float(np.abs(a).max()) > MAX_MAP_VALUE:
+            raise ArtifactError(f"{path}: {name} has values beyond {MAX_MAP_VALUE:g} (occupancy is "
+                                f"about 0 in free space and 1 in solids, colours in [0, 1])")
     return VoxelMap(spec, occ.astype(np.float32), col.astype(np.float32), tau, header.get("meta", {}))
 
 
+#: Largest magnitude of a stored occupancy or colour value (a fit keeps them near [0, 1]).
+MAX_MAP_VALUE = 1e6
 #: The most cells a map file may declare (16 bytes each in memory: float32 occ + RGB col).
 MAX_MAP_CELLS = 1 << 30
 
@@ -299,11 +305,30 @@ def _parse_header(header, path: Path) -> tuple[GridSpec, float]:
     if not np.isfinite(tau) or not np.all(np.isfinite(spec.lo + spec.hi)):
         raise ArtifactError(f"{path}: bad map header (tau {tau}, lo {list(spec.lo)}, hi "
                             f"{list(spec.hi)}: all must be finite)")
+    if not 0 < tau < 1:  # occupancy lives in [0, 1]: a tau outside never crosses, renders nothing
+        raise ArtifactError(f"{path}: bad map header (tau {tau}: must be in (0, 1))")
+    _check_meta(header.get("meta", {}), path)
     cells = int(np.prod(spec.shape, dtype=np.float64))
     if cells > MAX_MAP_CELLS:
         raise ArtifactError(f"{path}: grid {list(spec.shape)} has {cells} cells, more than the "
                             f"{MAX_MAP_CELLS} a map file may have")
     return spec, tau
+
+
+#: Ranges of the map header's ``meta`` numbers that navbench reads when it renders the map
+#: (the ray step, the render range, the emission tracker's depth scale): absent is fine, out of
+#: range is refused on load (a step of 1e-9 m hung the renderer; a range of 0 renders nothing).
+META_RANGES = {"step": (MIN_RAY_STEP, 1e6), "max_range": (MIN_RAY_RANGE, 1e6), "sigma2": (1e-9, 1e6)}
+
+
+def _check_meta(meta: dict, path: Path) -> None:
+    for k, (lo, hi) in META_RANGES.items():
+        if k not in meta:
+            continue
+        v = meta[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+            raise ArtifactError(f"{path}: bad map header (meta.{k} = {v!r}: must be a number in "
+                                f"[{lo:g}, {hi:g}])")
 
 
 def _check_declared(z, spec: GridSpec, path: Path) -> None:

@@ -23,6 +23,7 @@ from navbench.geometry import Intrinsics, camera_pose
 
 from navbench.track.lie import planar_from_camera
 from navbench.worldmodel.views import (
+    MAX_BOX_M,
     TUM_DEPTH_SCALE,
     Views,
     _intrinsics_from,
@@ -398,12 +399,13 @@ def import_views(directory, intrinsics: Intrinsics | None = None, camera_height:
         try:
             box = tuple(tuple(json_number(c) for c in corner) for corner in info["box"])
             lo, hi = np.asarray(box[0]), np.asarray(box[1])
-            ok = len(box) == 2 and lo.shape == hi.shape == (3,) and np.all(np.isfinite(lo + hi))
+            ok = (len(box) == 2 and lo.shape == hi.shape == (3,)
+                  and np.all(np.abs(np.concatenate([lo, hi])) <= MAX_BOX_M))  # finite, not absurd
         except (TypeError, ValueError, IndexError):
             ok = False
         if not (ok and np.all(hi > lo)):
             raise ArtifactError(f"{info_path}: box must be two corners [[x, y, z], [x, y, z]] "
-                                f"with lo < hi, got {info['box']!r}")
+                                f"with lo < hi, each coordinate within {MAX_BOX_M:g} m, got {info['box']!r}")
     if info.get("level") is not None and not isinstance(info["level"], str):
         raise ArtifactError(f"{info_path}: level must be a string, got {info['level']!r}")
     seed = info.get("seed")

@@ -43,6 +43,9 @@ _ARRAYS = ("poses", "rgb", "depth", "valid")
 #: The compressed arrays of a views directory written with ``compress=True``.
 COMPRESSED_FILE = "depth_valid.npz"
 _COMPRESSED = ("depth", "valid")
+#: Largest magnitude (m) of a views box corner, in a views file or an ``intrinsics.json``:
+#: navbench's bound on any float setting (``MAX_FLOAT`` of the profile checks, issue 34).
+MAX_BOX_M = 1e6
 
 
 @dataclass
@@ -119,6 +122,9 @@ def validate_views(v: Views, where: str, check_values: bool = True) -> None:
     lo, hi = np.asarray(v.box[0], float), np.asarray(v.box[1], float)
     if lo.shape != (3,) or hi.shape != (3,) or not np.all(hi > lo):
         raise ArtifactError(f"{where}: box {v.box!r} is not two corners lo < hi")
+    if not np.all(np.abs(np.concatenate([lo, hi])) <= MAX_BOX_M):  # NaN too
+        raise ArtifactError(f"{where}: box {v.box!r} has a corner beyond {MAX_BOX_M:g} m (the "
+                            f"region a map must cover; 1e300 made cells 1e298 m wide)")
     if check_values:
         if not np.all(np.isfinite(v.poses)):
             raise ArtifactError(f"{where}: poses contain NaN or infinite values")
@@ -434,6 +440,8 @@ def _make(arrays, intr, cam_h, level, seed, box, meta, where) -> Views:
     v.poses, v.rgb, v.depth, v.valid = (arrays[k] for k in _ARRAYS)
     v.intrinsics, v.camera_height, v.level, v.seed, v.box, v.meta = intr, cam_h, level, seed, box, meta
     validate_views(v, where)
+    if len(v) == 0:  # every command needs a view; the message names the file (P-019)
+        raise ArtifactError(f"{where}: holds no views")
     return v
 
 

@@ -36,7 +36,7 @@ def register(app: typer.Typer) -> None:
         count: int = typer.Option(None, "--count", min=1, help=f"Number of views {profile_default('views')}."),
         camera: str = typer.Option(None, "--camera", help="half (160x120) or paper (320x240) "
                                    f"{profile_default('camera')}."),
-        seed: int = typer.Option(None, "--seed", min=0, help=f"Pose sampling seed {profile_default('views_seed')}."),
+        seed: int = typer.Option(None, "--seed", min=0, max=2**63 - 1, help=f"Pose sampling seed {profile_default('views_seed')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
@@ -50,7 +50,7 @@ def register(app: typer.Typer) -> None:
         level: str = typer.Argument(..., help="Level name (levels/NAME.json, generated if absent)."),
         count: int = typer.Option(5000, "--count", min=1, help="Number of views."),
         camera: str = typer.Option(None, "--camera", help=f"half or paper {profile_default('camera')}."),
-        seed: int = typer.Option(None, "--seed", min=0, help=f"Pose sampling seed {profile_default('views_seed')}."),
+        seed: int = typer.Option(None, "--seed", min=0, max=2**63 - 1, help=f"Pose sampling seed {profile_default('views_seed')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         force: bool = typer.Option(False, "--force", help="Recollect even when cached."),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),

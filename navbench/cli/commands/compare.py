@@ -39,7 +39,7 @@ def compare(
                                       "percentile (the interval of the paired_runs script compare replaced: the README's Table 4)."),
     boot: int = typer.Option(None, "--boot", min=1, max=100_000, help="Bootstrap resamples "
                              + default("2000 for bca, 4000 for percentile") + ".", show_default=False),
-    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
+    seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Seed of the bootstrap."),
     fmt: Format = typer.Option(Format.table, "--format", help="Output format."),
     db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB", help=DB_HELP + " Side A's database."),
     benchmark_version: str = typer.Option(None, "--benchmark-version", help="Benchmark version read on both "

@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
                                     f"{default('every --heldout-every-th view of --views')}."),
         heldout_every: int = typer.Option(10, "--heldout-every", min=2, max=MAX_VIEWS, help="Without --heldout: "
                                           "views N-1, 2N-1, ... of --views are held out, the rest fitted."),
-        seed: int = typer.Option(None, "--seed", min=0, help=f"Batch sampling seed {profile_default('fit_seed')}."),
+        seed: int = typer.Option(None, "--seed", min=0, max=2**63 - 1, help=f"Batch sampling seed {profile_default('fit_seed')}."),
         camera: str = typer.Option(None, "--camera", help=f"half or paper, for LEVEL's collected views {profile_default('camera')}."),
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile for defaults")),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),

@@ -25,7 +25,7 @@ def register(app: typer.Typer) -> None:
         from navbench.errors import TaskError
         from navbench.levelio import resolve_level
         from navbench.plan.difficulty import level_difficulty
-        from navbench.plan.tasks import find_task_file, load_tasks
+        from navbench.plan.tasks import check_tasks_on_level, find_task_file, read_task_file
 
         if not levels:
             levels = sorted({p.name.rsplit("-", 2)[0] for p in Path("tasks").glob("*-*-*.json")})
@@ -34,7 +34,14 @@ def register(app: typer.Typer) -> None:
         rows = []
         for name in levels:
             level = resolve_level(name)
-            tasks = load_tasks(find_task_file(level.name))[:count]
+            path = find_task_file(level.name)
+            ts = read_task_file(path)
+            if ts.level != level.name:  # a file of another level under this one's name
+                raise TaskError(f"{path}: level: says {ts.level!r} but the file name says {level.name!r}")
+            tasks = list(ts.tasks)[:count]
+            # the checks run-navigation applies (issue 34, P-008): a start on its target, a made-up
+            # optimal_length or a wall-bound point is refused, not measured (0 / 0, made-up figures)
+            check_tasks_on_level(level, tasks, str(path))
             rows.append(level_difficulty(level, tasks).summary())
         if as_json:
             print_json(rows)

@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
                                      "space, uniform headings) or trajectory (views along the "
                                      "tracking trajectories, RNR-Map's protocol)."),
         camera: str = typer.Option("half", "--camera", help="half or paper."),
-        seed: int = typer.Option(0, "--seed", min=0, help="Query (and changed-level) seed."),
+        seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Query (and changed-level) seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Localiser setting KEY=VALUE "
                                          "(a LocalizerConfig field, repeatable), e.g. min_candidates=5."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),

@@ -68,7 +68,7 @@ def register(app: typer.Typer) -> None:
     @app.command("make-level")
     def make_level(
         name: str = typer.Argument(None, help="Level name; the file is levels/NAME.json."),
-        seed: int = typer.Option(None, "--seed", min=0, help="Generator seed (required unless --benchmark)."),
+        seed: int = typer.Option(None, "--seed", min=0, max=2**63 - 1, help="Generator seed (required unless --benchmark)."),
         kind: str = typer.Option("house", "--kind", help="house, dense (more and smaller rooms, "
                                    "HouseExpo-like) or maze."),
         size: float = typer.Option(None, "--size", help="Footprint's longer side, metres "

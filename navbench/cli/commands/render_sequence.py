@@ -24,7 +24,7 @@ def register(app: typer.Typer) -> None:
                                   "as track-sequence --odometry gt+NOISE draws them. Default: no "
                                   "odometry file."),
         camera: str = typer.Option("half", "--camera", help="half (160x120) or paper (320x240)."),
-        seed: int = typer.Option(0, "--seed", min=0, help="Seed of the walk (its tasks or random "
+        seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Seed of the walk (its tasks or random "
                                  "waypoints) and of the odometry noise."),
         sim: str = typer.Option("pymunk", "--sim", help="The frames' simulator: pymunk (the exact "
                                 "ray-cast camera) or vizdoom (the paper's engine; its projection is "

@@ -49,6 +49,12 @@ def report(
     from navbench.results.compare import parse_pair
 
     pairs = [parse_pair(p) for p in pair or []]
+    from pathlib import Path as _Path
+
+    from navbench.errors import ConfigError
+
+    if _Path(levels).exists() and not _Path(levels).is_dir():  # was silently ignored (P-020)
+        raise ConfigError(f"--levels {levels}: not a folder (the folder of the level files, e.g. levels)")
     # only into a new, empty or earlier report folder; built beside it, then swapped in whole,
     # so a write that fails (disk full) leaves the earlier report as it was
     protected = protected_paths(db, cache, levels)

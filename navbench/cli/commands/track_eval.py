@@ -30,7 +30,7 @@ def register(app: typer.Typer) -> None:
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
                                                                           "build the map with --map fit")),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
-        seed: int = typer.Option(0, "--seed", min=0, help="Trajectory recording seed."),
+        seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Trajectory recording seed."),
         noise: str = typer.Option("tracking", "--noise", help="Noise level of the recorded "
                                   "trajectories: tracking (the paper's study), none, low, mid, high."),
         kidnap_every: int = typer.Option(None, "--kidnap-every", help="Teleport the true pose to a "

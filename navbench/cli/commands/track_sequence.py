@@ -28,7 +28,7 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(None, "--out", metavar="EST.txt", help="Where the estimate goes (strict TUM) "
                                  + default("results/sequences/NAME/EST_ODOM_seedS.txt, NAME the "
                                            "sequence's folder") + "."),
-        seed: int = typer.Option(0, "--seed", min=0, help="Odometry noise and pixel-sampling seed."),
+        seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Odometry noise and pixel-sampling seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Estimator option KEY=VALUE "
                                          "(repeatable), e.g. -o optimizer=adam."),
         fx: float = _tum.FX, fy: float = _tum.FY, cx: float = _tum.CX, cy: float = _tum.CY,

@@ -168,17 +168,18 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
     ``heldout_key``) or the split (:func:`navbench.worldmodel.fitviews.fit_views`); slice scores
     only with ``level``. The artifact is a fit-map one (``map.npz``, ``metrics.json``), keyed by
     the resolved fit config, the split and the content keys; ``ref.meta`` is the metrics."""
+    from navbench.worldmodel.fitconfig import require_depth_within
     from navbench.worldmodel.views import heldout_split
 
     fit_cfg = resolve_fit_device(ctx, cfg.fit_config())
     if heldout is None:
         train_idx, held_idx = heldout_split(len(views), cfg.heldout_every)  # nothing held out fails now
-        _require_depth(views, "--views (the fitted part of the split)", train_idx)
-        _require_depth(views, f"--views (the held-out part: every {cfg.heldout_every}th view)",
-                       held_idx)
+        require_depth_within(views, fit_cfg.max_range, "--views (the fitted part of the split)", train_idx)
+        require_depth_within(views, fit_cfg.max_range,
+                             f"--views (the held-out part: every {cfg.heldout_every}th view)", held_idx)
     else:
-        _require_depth(views, "--views")
-        _require_depth(heldout, "--heldout")
+        require_depth_within(views, fit_cfg.max_range, "--views")
+        require_depth_within(heldout, fit_cfg.max_range, "--heldout")
         _require_disjoint(views, views_key, heldout, heldout_key)
     resolved = {**fit_key_settings(fit_cfg),
                 "heldout": "given" if heldout is not None else f"every {cfg.heldout_every}"}
@@ -209,18 +210,6 @@ def fit_views_stage(ctx: StageContext, views, views_key: str, cfg: FitViewsConfi
     if ctx.db is not None:
         ctx.db.record_map(name, key, metrics)
     return Ref("fit-map", key, path / MAP_FILE, cached, name, metrics)
-
-
-def _require_depth(views, what: str, idx=None) -> None:
-    """One :class:`ConfigError` when ``views`` (those at ``idx``, default all) have no valid
-    depth pixel: a map fitted to them learns nothing, and a quality measured on them is a
-    score of nothing."""
-    import numpy as np
-
-    idx = range(len(views)) if idx is None else [int(i) for i in idx]
-    if not any(np.asarray(views.valid[i]).any() for i in idx):
-        raise ConfigError(f"{what}: none of its {len(idx)} views has a valid depth pixel; a map "
-                          f"cannot be fitted to or scored on views without depth")
 
 
 def _require_disjoint(views, views_key: str, heldout, heldout_key: str | None) -> None:

@@ -84,10 +84,15 @@ def fit_map_stage(ctx: StageContext, level: Ref, views: Ref, eval_views: Ref, cf
     def compute(d: Path) -> None:
         from navbench.worldmodel.fit import evaluate_map, fit_map
         from navbench.interrupts import checked, deferred
+        from navbench.worldmodel.fitconfig import require_depth_within
         from navbench.worldmodel.grid import check_fitted_finite
         from navbench.worldmodel.views import load_views
 
+        # a score of nothing is never stored: both view sets must see something within max_range
+        require_depth_within(load_views(eval_views.path), fit_cfg.max_range,
+                             f"fit-map {level.name}: the held-out views ([views] eval_count)")
         train = load_views(views.path)
+        require_depth_within(train, fit_cfg.max_range, f"fit-map {level.name}: the views")
         update = ctx.progress(f"fit {level.name}", fit_cfg.steps)
         with deferred():  # Ctrl-C at the next progress call, never inside torch (an abort)
             vmap, metrics = fit_map(train, fit_cfg, progress=checked(update))
