@@ -93,3 +93,8 @@ _DB_FILE = DB_URL.removeprefix("sqlite:///")
 DB_HELP = f"Results database URL {default(f'$NAVBENCH_DB, else the SQLite file {_DB_FILE}')}."
 VERSION_HELP = ("Benchmark version to read (results of two versions are never pooled) "
                 + default("the newest version in the selection") + ".")
+
+#: ``--overlap/--no-overlap`` of ``all`` and ``run-navigation`` (issue 36, navbench.pipeline.overlap).
+OVERLAP_HELP = ("Build the next levels' views and maps in a background process while a level's "
+                "episodes run (several levels, a fitted map, --workers other than 1: one process "
+                "beside the workers); the results are identical either way.")
