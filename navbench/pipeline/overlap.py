@@ -158,6 +158,7 @@ class Prefetcher:
         self._cond = threading.Condition()
         self._reader: threading.Thread | None = None
         self._bars: dict[str, Callable[..., None]] = {}
+        self._stopping = False
 
     def __enter__(self) -> "Prefetcher":
         import multiprocessing as mp
@@ -213,6 +214,14 @@ class Prefetcher:
             pass
         except Exception:  # noqa: BLE001 - a display problem must not stop the run
             pass
+        missing = [n for n in self.names if n not in self._done]
+        if missing and not self._stopping:
+            p = self.proc
+            if p is not None:
+                p.join(2)
+            code = p.exitcode if p is not None else None
+            self.log(f"overlap: the background process ended (exit status {code}) before building "
+                     f"{', '.join(missing)}; building {'them' if len(missing) > 1 else 'it'} here")
         with self._cond:  # the process ended: whatever it did not report, this process builds
             for n in self.names:
                 self._done.setdefault(n, None)
@@ -232,6 +241,7 @@ class Prefetcher:
         p = self.proc
         if p is None:
             return
+        self._stopping = True
         if p.is_alive():
             try:
                 os.kill(p.pid, signal.SIGINT)

@@ -258,3 +258,37 @@ def test_interrupt_during_the_background_fit_leaves_nothing_and_the_rerun_finish
     assert len(got) == 12 == len({(r["cell_key"], r["task_id"], r["seed"]) for r in got})
     with sqlite3.connect(root / "nb.db") as con:
         assert [s for (s,) in con.execute("SELECT status FROM runs ORDER BY id")] == ["interrupted", "done"]
+
+
+@pytest.mark.slow
+def test_a_background_process_that_dies_costs_only_time(tmp_path, monkeypatch):
+    """kill -9 of the background process in the middle of tiny2's fit: this process builds
+    tiny2 itself, says so, and the run finishes with every episode."""
+    import threading
+
+    root = two_levels(tmp_path / "p", steps=200)
+    killed: list[int] = []
+
+    def killer() -> None:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and not killed:
+            for d in _tmp_dirs(root / "cache"):
+                pid = int(d.name.split("-")[2])
+                if d.parent.name == "fit-map" and pid != os.getpid():
+                    time.sleep(0.5)
+                    os.kill(pid, signal.SIGKILL)
+                    killed.append(pid)
+                    break
+            time.sleep(0.05)
+
+    t = threading.Thread(target=killer, daemon=True)
+    t.start()
+    result, lines = run_two(root, True, monkeypatch)
+    t.join(1)
+    assert killed, "the background fit was not seen running"
+    assert any(ln.startswith("overlap: the background process ended (exit status -9) before building tiny2")
+               for ln in lines), lines
+    assert result.navigation.stored == 12 and {li.map.name for li in result.inputs} == {"tiny", "tiny2"}
+    assert not any(r["name"].endswith("(overlapped)") and r["name"].startswith("fit-map")
+                   for r in result.breakdown)  # tiny2's fit ran here
+    assert not _pid_alive(killed[0])
