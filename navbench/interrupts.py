@@ -65,3 +65,28 @@ def deferred() -> Iterator[None]:
     finally:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     checkpoint()  # Ctrl-C during the last steps, after the final checkpoint
+
+
+@contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM is handled as Ctrl-C: as the SIGINT handler of the moment would
+    handle it (a ``KeyboardInterrupt``, or inside :func:`deferred` at the next checkpoint), so a
+    ``kill`` of a run records it as interrupted and stops its workers, as Ctrl-C does. A no-op
+    off the main thread and where SIGTERM is not at its default action (a caller's own)."""
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL):
+        yield
+        return
+
+    def on_term(signum, frame) -> None:
+        handler = signal.getsignal(signal.SIGINT)
+        if callable(handler):
+            handler(signal.SIGINT, frame)
+        else:  # SIGINT ignored (a background job of a shell): SIGTERM still ends the run
+            raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_term)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)

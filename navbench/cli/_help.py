@@ -101,3 +101,8 @@ RUN_VERSION_HELP = ("Benchmark version to run under: the profile takes its setti
                     + default("the profile's benchmark_version") + ".")
 VERSION_HELP = ("Benchmark version to read (results of two versions are never pooled) "
                 + default("the newest version in the selection") + ".")
+
+#: ``--overlap/--no-overlap`` of ``all`` and ``run-navigation`` (issue 36, navbench.pipeline.overlap).
+OVERLAP_HELP = ("Build the next levels' views and maps in a background process while a level's "
+                "episodes run (several levels, a fitted map, --workers other than 1: one process "
+                "beside the workers); the results are identical either way.")

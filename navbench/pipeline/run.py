@@ -162,8 +162,14 @@ def navigation_config(profile: "Profile"):
 
 def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str = "local",
              address: str | None = None, chunk_size: int | None = None,
-             progress: Progress | None = None) -> tuple[list["LevelInputs"], "NavigationSummary"]:
+             progress: Progress | None = None,
+             overlap: bool = True) -> tuple[list["LevelInputs"], "NavigationSummary"]:
     """Build (or fetch) every level's inputs, then run the episodes the database lacks.
+
+    ``overlap`` (several levels, a fitted map, more than one worker): the levels after the first
+    are built in a background process while the episodes of the levels before them run, and the
+    episodes run level by level (:mod:`navbench.pipeline.overlap`; the same artifacts, keys and
+    rows). ``False``: every level's inputs first, then every episode, one after the other.
 
     Returns ``(level inputs, NavigationSummary)``; the summary's ``seconds`` and ``workers`` are
     the navigation stage's wall-clock time and the executor's worker count (the breakdown's).
@@ -191,45 +197,107 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
         if not any(uses_map(e) for e in profile.estimators):  # issue 35: say why a map is fitted
             ctx.log(f"fit-map: {', '.join(profile.estimators)} track without the map, but the agent "
                     "plans its path on it; --map true plans on the true geometry and fits nothing")
+    from navbench.pipeline.stages.inputs import under_version
     from navbench.pipeline.versioning import departures, version_line
 
     if departures(profile):  # issue 36: a run of its version, but not the version's own settings
         ctx.log(f"warning: {version_line(profile)}")
-    inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
+    under_version(ctx, profile)  # every stage of the run, the levels checked up front included
     cfg = navigation_config(profile)
     from navbench.pipeline.stages.online import online_config
 
     online = online_config(profile.map_source, profile.online_ablation)
+    goals = False
     if online is not None:  # issue 15 §5: the unknown-house loop; no goal is localised beforehand
         from navbench.pipeline.stages.goals import ImageGoalConfig
 
         cfg = dataclasses.replace(cfg, image_goal=ImageGoalConfig(camera=profile.camera), online=online)
     elif cfg.goal == "image":  # issue 15: every task's goal image localised in the level's map
         from navbench.pipeline.stages.goals import ImageGoalConfig
-        from navbench.pipeline.stages.inputs import with_image_goals
 
         cfg = dataclasses.replace(cfg, image_goal=ImageGoalConfig(camera=profile.camera,
                                                                   localizer=dict(profile.goal_localizer)))
-        inputs = [with_image_goals(ctx, li, cfg.image_goal) for li in inputs]
-    bar: dict[str, Callable[[int], None]] = {}
+        goals = True
+    bar: dict[str, Any] = {"total": 0}
 
-    def on_total(n: int) -> None:
-        if n:
-            bar["advance"], _ = progress.counter("episodes", n, unit="ep")
+    def on_total(n: int) -> None:  # called once per navigation stage (per level with overlap)
+        bar["total"] += n
+        if "advance" in bar:
+            bar["set_total"](bar["total"])
+        elif n:
+            bar["advance"], bar["set_total"] = progress.counter("episodes", bar["total"], unit="ep")
 
     def on_progress(n: int) -> None:
         if "advance" in bar:
             bar["advance"](n)
 
-    with make_executor(executor, profile.workers, address) as ex:
-        t0 = time.perf_counter()
-        summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
-                                       on_progress=on_progress, on_total=on_total)
-        summary.seconds = time.perf_counter() - t0
-        summary.workers = int(getattr(ex, "workers", None) or 1)
+    from navbench.pipeline.overlap import overlap_applies
+
+    why_not = overlap_applies(profile, executor, ctx.workers if executor == "local" else 0) if overlap \
+        else "switched off"
+    if why_not is None:
+        inputs, summary = _navigate_overlapped(ctx, profile, run_id, cfg, goals, executor, address,
+                                               chunk_size, progress, on_total, on_progress)
+    else:
+        inputs = [build_level_inputs(ctx, profile, name) for name in dict.fromkeys(profile.levels)]
+        if goals:
+            from navbench.pipeline.stages.inputs import with_image_goals
+
+            inputs = [with_image_goals(ctx, li, cfg.image_goal) for li in inputs]
+        with make_executor(executor, profile.workers, address) as ex:
+            t0 = time.perf_counter()
+            summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
+                                           on_progress=on_progress, on_total=on_total)
+            summary.seconds = time.perf_counter() - t0
+            summary.workers = int(getattr(ex, "workers", None) or 1)
     ctx.log(f"run-navigation: {summary.total} episodes in {len(summary.cells)} cells: "
             f"{summary.already_done} already stored, {summary.from_cache} from stored trajectories, "
             f"{summary.ran} run now")
+    return inputs, summary
+
+
+def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, cfg, goals: bool,
+                         executor: str, address: str | None, chunk_size: int | None, progress: Progress,
+                         on_total, on_progress) -> tuple[list["LevelInputs"], "NavigationSummary"]:
+    """:func:`navigate` level by level, the levels after the first built in a background
+    process beside the episodes (:mod:`navbench.pipeline.overlap`); the same artifacts, keys and
+    rows as without overlap. ``summary.seconds`` is the episodes' wall-clock time, summed over
+    the levels (waits for a level's inputs excluded)."""
+    import time
+
+    from navbench.pipeline.executor import make_executor
+    from navbench.pipeline.overlap import Prefetcher, summed_summary
+    from navbench.pipeline.stages import build_level_inputs, run_navigation_stage
+    from navbench.pipeline.stages.level import LevelConfig, make_level_stage
+
+    names = list(dict.fromkeys(profile.levels))
+    for name in names:  # a misspelt level fails before any work, as without overlap (cheap, cached)
+        make_level_stage(ctx, LevelConfig(name, profile.level_seed))
+    inputs, parts = [], []
+    with Prefetcher(profile, names[1:], ctx, progress.log, ctx.progress) as pre, \
+            make_executor(executor, profile.workers, address) as ex:
+        for i, name in enumerate(names):
+            if i:
+                t0 = time.perf_counter()
+                ctx.prefetched.update(pre.wait(name))
+                waited = time.perf_counter() - t0
+                if waited >= 1.0:
+                    ctx.log(f"overlap: waited {waited:.1f} s for {name}'s inputs (its fit outlasted "
+                            f"the episodes before it)")
+            li = build_level_inputs(ctx, profile, name)
+            if goals:
+                from navbench.pipeline.stages.inputs import with_image_goals
+
+                li = with_image_goals(ctx, li, cfg.image_goal)
+            inputs.append(li)
+            t0 = time.perf_counter()
+            part = run_navigation_stage(ctx, run_id, [li], cfg, executor=ex, chunk_size=chunk_size,
+                                        on_progress=on_progress, on_total=on_total)
+            part.seconds = time.perf_counter() - t0
+            parts.append(part)
+        workers = int(getattr(ex, "workers", None) or 1)
+    summary = summed_summary(parts)
+    summary.workers = workers
     return inputs, summary
 
 
@@ -271,7 +339,7 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
                 chunk_size: int | None = None, progress: "Progress | bool | Callable[[str], None] | None" = None,
                 until: str = "report", report_dir: str | Path | None = _UNSET,
                 cache_root: str | Path | None = None, command: str | None = None,
-                ref_name: str = "all", sets: list[str] | None = None) -> RunResult:
+                ref_name: str = "all", sets: list[str] | None = None, overlap: bool = True) -> RunResult:
     """Run a profile end to end: make-level -> collect-views -> fit-map -> sample-tasks ->
     run-navigation -> score -> report, every stage cached and the run recorded.
 
@@ -286,9 +354,12 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
     ``None``/``False`` silent (library use), ``True`` the CLI's stage lines and bars (stdout),
     a function ``f(line)`` each stage line and bar state as text, or a :class:`Progress`.
     ``sets``: ``--set`` items (``["fit.steps=300", "tasks.count=3"]``,
-    :mod:`navbench.pipeline.overrides`).
+    :mod:`navbench.pipeline.overrides`). ``overlap``: build the next levels' views and maps in a
+    background process while a level's episodes run (:func:`navigate`; results identical either
+    way, so it is no part of any key or of the run's recorded config).
     Episodes already stored are skipped, so a rerun resumes; a run interrupted by Ctrl-C is
-    recorded as interrupted and the ``KeyboardInterrupt`` propagates.
+    recorded as interrupted and the ``KeyboardInterrupt`` propagates; so is one ended by SIGTERM
+    (handled as a Ctrl-C while the run works, :func:`navbench.interrupts.terminate_as_interrupt`).
     """
     from navbench.errors import ConfigError
     from navbench.results.breakdown import breakdown_rows
@@ -311,7 +382,8 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
             with PipelineUI() as ui:
                 return run_profile(profile, db=db, executor=executor, workers=workers, address=address,
                                    chunk_size=chunk_size, progress=ui, until=until, report_dir=report_dir,
-                                   cache_root=cache_root, command=command, ref_name=ref_name, sets=sets)
+                                   cache_root=cache_root, command=command, ref_name=ref_name, sets=sets,
+                                   overlap=overlap)
     elif progress is False:
         progress = None
     prof = profile if isinstance(profile, Profile) else load_profile(profile)
@@ -333,12 +405,17 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
 
     require_sim(prof.sim, f"profile {prof.name}: sim")  # vizdoom installed? before the run row
     progress = progress or SilentProgress()
-    with open_db(db) as rdb:
+    import time
+
+    from navbench.interrupts import terminate_as_interrupt
+
+    t_start = time.perf_counter()
+    with open_db(db) as rdb, terminate_as_interrupt():
         ctx = stage_context(progress, rdb, cache_root=cache_root)
         command = command or f"run_profile({prof.name!r})"
         ref = f"{ref_name}-{prof.name}"
         with recorded_run(rdb, prof.name, command, prof, ctx, ref, sim=prof.sim) as run_id:
-            inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress)
+            inputs, summary = navigate(ctx, prof, run_id, executor, address, chunk_size, progress, overlap)
             score = score_stage(ctx, summary.cells, preset=prof.scoring_preset) \
                 if until in ("score", "report") else None
         # The run is marked done before its report is drawn, so the page it publishes shows it
@@ -356,7 +433,8 @@ def run_profile(profile: "Profile | str | None" = "quick", *, db: "ResultsDB | s
                 if ctx.used:
                     ctx.store.set_ref(ref, ctx.used, merge=failed)
         # Where the time went, the report stage included: stored with the (finished) run.
-        breakdown = breakdown_rows(ctx.timings, summary, summary.seconds, summary.workers)
+        breakdown = breakdown_rows(ctx.timings, summary, summary.seconds, summary.workers,
+                                   wall_s=time.perf_counter() - t_start)
         rdb.add_run_timings(run_id, breakdown)
     report_path = report.path if report is not None else None
     if report is not None and report_dir is not None:

@@ -7,8 +7,8 @@ from pathlib import Path
 import typer
 
 from navbench.cli._common import console
-from navbench.cli._help import (DB_HELP, DEFAULT_PROFILE, RUN_VERSION_HELP, SET_HELP, SIM_HELP, profile_default,
-                                profile_help)
+from navbench.cli._help import (DB_HELP, DEFAULT_PROFILE, OVERLAP_HELP, RUN_VERSION_HELP, SET_HELP, SIM_HELP,
+                                profile_default, profile_help)
 from navbench.cli.commands._pipeline_ui import command_line
 from navbench.pipeline.artifacts import PAIRED_FILE  # light
 from navbench.pipeline.profiles import MAX_WORKERS  # light
@@ -86,6 +86,7 @@ def register(app: typer.Typer) -> None:
                                             "endpoint (overrides the profile's \\[conditions] table)."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                                help=DB_HELP),
+        overlap: bool = typer.Option(True, "--overlap/--no-overlap", help=OVERLAP_HELP),
     ):
         """make-level -> collect-views -> fit-map -> sample-tasks -> run-navigation -> score -> report.
 
@@ -117,7 +118,8 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         result = run_with_ui(lambda ui: run_profile(profile, db=db, executor=executor, workers=workers,
                                                     address=address, progress=ui, report_dir=report_dir,
-                                                    command=command_line(), ref_name="all"))
+                                                    command=command_line(), ref_name="all",
+                                                    overlap=overlap))
         _print_scores(result.score.path)
         _print_claim(result.score.path.parent / PAIRED_FILE, result.profile.scoring_preset)
         from navbench.results.breakdown import format_breakdown

@@ -5,7 +5,8 @@ from __future__ import annotations
 import typer
 
 from navbench.cli._common import console, parse_list
-from navbench.cli._help import DB_HELP, RUN_VERSION_HELP, SET_HELP, SIM_HELP, default, profile_default, profile_help
+from navbench.cli._help import (DB_HELP, OVERLAP_HELP, RUN_VERSION_HELP, SET_HELP, SIM_HELP, default, profile_default,
+                                profile_help)
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS, MAX_WORKERS  # light
 
 
@@ -60,6 +61,7 @@ def register(app: typer.Typer) -> None:
                                          "\\[navigation.options.<estimator>] table."),
         db: str = typer.Option(None, "--db", envvar="NAVBENCH_DB",
                                help=DB_HELP),
+        overlap: bool = typer.Option(True, "--overlap/--no-overlap", help=OVERLAP_HELP),
     ):
         """Run navigation episodes and store them in the results database.
 
@@ -104,7 +106,8 @@ def register(app: typer.Typer) -> None:
 
         result = run_with_ui(lambda ui: run_profile(prof, db=db, executor=executor, address=address,
                                                     chunk_size=chunk, progress=ui, until="navigation",
-                                                    command=command_line(), ref_name="run-navigation"))
+                                                    command=command_line(), ref_name="run-navigation",
+                                                    overlap=overlap))
         summary = result.navigation
         console.print(f"stored {summary.stored} new episodes; {summary.already_done + summary.stored}"
                       f"/{summary.total} of the grid are in the database")

@@ -44,10 +44,14 @@ class StageContext:
     levels_dir: Path = Path("levels")
     tasks_dir: Path = Path("tasks")
     used: list = field(default_factory=list)   # (stage, key) pairs touched: gc roots
-    # (stage, seconds, cached) of every run() call: the per-stage breakdown (pipeline.breakdown)
+    # (stage, seconds, cached) of every run() call: the per-stage breakdown (pipeline.breakdown);
+    # (stage, seconds, False, True) for a stage another process computed for this run
     timings: list = field(default_factory=list)
     workers: int = 1
     benchmark_version: str = LEGACY_VERSION
+    # (stage, key) -> seconds: artifacts this run's prefetch process computed (pipeline.overlap);
+    # found cached here, they are reported as computed beside the episodes, with its seconds
+    prefetched: dict = field(default_factory=dict)
 
     def forced(self, stage: str) -> bool:
         return "*" in self.force or stage in self.force
@@ -58,9 +62,20 @@ class StageContext:
         t0 = time.perf_counter()
         if stage in affected_stages(self.benchmark_version):
             config = {**to_jsonable(config), **key_part(self.benchmark_version)}
+        log = self.log
+        if self.prefetched:  # "cached" is what this process saw; say who computed it
+            def log(msg: str) -> None:
+                key = msg.rsplit(" ", 1)[-1]
+                if msg.startswith(f"{stage}: cached ") and any(
+                        s == stage and k.startswith(key) for s, k in self.prefetched):
+                    msg = f"{stage}: {key}, computed in the background beside the episodes"
+                self.log(msg)
         path, key, cached = run_stage(self.store, stage, config, inputs, FORMAT[stage], compute,
-                                      force=self.forced(stage), log=self.log, validate=validate)
-        self.timings.append((stage, time.perf_counter() - t0, bool(cached)))
+                                      force=self.forced(stage), log=log, validate=validate)
+        if cached and (stage, key) in self.prefetched:
+            self.timings.append((stage, self.prefetched.pop((stage, key)), False, True))
+        else:
+            self.timings.append((stage, time.perf_counter() - t0, bool(cached)))
         self.used.append((stage, key))
         return path, key, cached
 
