@@ -7,7 +7,7 @@ PROFILE ?= quick
 # numba's compiled kernels are cached here, so only the first run pays for compilation
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 
-.PHONY: setup test all paper docs docs-serve clean
+.PHONY: setup test all paper acceptance docs docs-serve clean
 
 setup: $(STAMP)
 
@@ -31,6 +31,13 @@ all: setup
 # The paper's protocol: six levels, 5000 views, 10 000 fit steps, 200 tasks, three noise levels.
 paper: setup
 	$(BIN)/navbench all --profile paper
+
+# The acceptance grid of the candidate benchmark version (docs/changelog.md): the same grid under
+# navbench-1 and navbench-2, one database each, then their paired differences (navbench-2 - navbench-1).
+acceptance: setup
+	$(BIN)/navbench all --profile acceptance --benchmark-version navbench-1 --db sqlite:///results/acceptance-1.db --report results/acceptance-1
+	$(BIN)/navbench all --profile acceptance --benchmark-version navbench-2 --db sqlite:///results/acceptance-2.db --report results/acceptance-2
+	$(BIN)/navbench compare --db sqlite:///results/acceptance-1.db --b-db sqlite:///results/acceptance-2.db --format markdown
 
 # The documentation site (MkDocs + Material, mkdocs.yml): built into site/, or served with live reload
 # at http://127.0.0.1:8000. --strict: a broken link, a missing anchor or a page left out of the

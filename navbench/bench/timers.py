@@ -380,7 +380,7 @@ def time_control_step(level, vmap, intrinsics: Intrinsics, repeats: int, warmup:
                         texture=texture)
         est = make_estimator(estimator, vmap=vmap, intrinsics=intrinsics, camera_height=CAMERA_HEIGHT,
                              seed=ep_seed, **(options or {}))
-        cfg = replace(EpisodeConfig(), max_steps=max_steps)
+        cfg = replace(EpisodeConfig(), max_steps=max_steps, texture=texture)
         rec = run_episode(level, occ2d, xs, ys, task, est, sim, config=cfg, planner_map=pm)
         t = rec.timings_ms
         parts = [np.asarray(t[k], dtype=np.float64) for k in t if k not in exclude]

@@ -161,6 +161,9 @@ def test_ctrl_c_while_the_cli_is_still_importing_is_one_line(project):
         p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=60)
         assert "Traceback" not in err, (delay, err)
+        if p.returncode == -signal.SIGINT and not err:
+            continue  # killed before the interpreter had installed its own handler (a loaded
+            # machine's start-up; CPython's, out of navbench's reach); the bug printed a traceback
         if p.returncode != 0:  # 0: it finished before the signal came (a fast machine)
             assert p.returncode == 130 and err.strip().splitlines()[-1] == "interrupted", (delay, p.returncode, err)
 
