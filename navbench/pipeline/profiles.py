@@ -314,6 +314,9 @@ def profile_path(name_or_path: str, where: str = "--profile", relative_to: Path 
     """The TOML file of a bundled profile name or a path (relative to ``relative_to``, else to
     the working directory); a missing file or an unknown name is a :class:`ConfigError` naming
     ``where`` (with the nearest bundled names for a misspelt one)."""
+    if not isinstance(name_or_path, str) or not name_or_path.strip():
+        raise ConfigError(f"{where}: an empty profile name; choose one of {available_profiles()} "
+                          "or give the path of a .toml file")
     if _is_path(name_or_path):
         path = Path(name_or_path).expanduser()
         if relative_to is not None and not path.is_absolute():
@@ -368,7 +371,7 @@ def profile_document(path: Path, _chain: tuple[Path, ...] = ()) -> dict[str, Any
 def load_profile(name_or_path: str | None = None) -> Profile:
     """Load a bundled profile by name, or a TOML file by path (default: ``quick``); ``extends``
     is resolved (:func:`profile_document`)."""
-    path = profile_path(name_or_path or DEFAULT_PROFILE)
+    path = profile_path(DEFAULT_PROFILE if name_or_path is None else name_or_path)
     return profile_from_dict(profile_document(path), str(path))
 
 

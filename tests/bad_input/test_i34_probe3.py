@@ -253,3 +253,22 @@ def test_report_levels_that_is_a_file_is_refused(project):
     assert res.code == 2, res.output
     assert_clean_error(res, "--levels", "not a folder")
     assert not (project / "rep").exists()
+
+
+@pytest.mark.parametrize("name", ["", "   "])
+def test_an_empty_profile_name_is_refused_not_the_default(project, name):
+    """Rerun of the third probe on the fixed code: ``--profile ''`` ran the default profile
+    (minutes of work for a typo); an empty name is now one line naming the choices."""
+    res = nb("all", "--profile", name)
+    assert_clean_error(res, "--profile", "empty profile name")
+    assert res.code == 2
+    assert not (project / "results" / "navbench.db").exists()
+
+
+def test_cache_ls_of_an_unknown_stage_is_refused_with_the_nearest_name(project):
+    """Rerun of the third probe: ``cache ls --stage fitmap`` listed an empty table with exit 0,
+    as if nothing were cached; a stage that does not exist is one line naming the stages."""
+    res = nb("cache", "ls", "--stage", "fitmap")
+    assert_clean_error(res, "--stage", "fitmap", "did you mean 'fit-map'")
+    assert res.code == 2
+    assert nb("cache", "ls", "--stage", "fit-map").code == 0

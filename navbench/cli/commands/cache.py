@@ -40,6 +40,15 @@ def ls(
 
     from navbench.pipeline.cache import ArtifactStore
 
+    if stage is not None:  # a misspelt stage lists nothing: say so instead
+        from navbench.errors import ConfigError
+        from navbench.names import did_you_mean
+        from navbench.pipeline.artifacts import FORMAT
+
+        known = sorted({*FORMAT, "episode"})
+        if stage not in known:
+            raise ConfigError(f"--stage: unknown stage {stage!r}{did_you_mean(stage, known)}; "
+                              f"choose one of {', '.join(known)}")
     if not _cache_root(root).is_dir():
         console.print(f"no cache at {escape(root)} yet: 0 artifacts")
         return
