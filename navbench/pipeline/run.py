@@ -145,7 +145,9 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     finally:
         if status is not None:
             db.finish_run(run_id, status)
-        if ctx is not None and ref_name and ctx.used:  # an unfinished run adds, never replaces
+        # an unfinished run adds to its ref, never replaces it; a refused one (discarded: it
+        # stored nothing) writes none, as a refused command writes nothing
+        if ctx is not None and ref_name and ctx.used and status is not None:
             ctx.store.set_ref(ref_name, ctx.used, merge=status != "done")
 
 

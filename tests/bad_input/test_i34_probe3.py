@@ -234,6 +234,17 @@ def test_a_refused_run_adds_to_its_cache_ref_never_replaces_it(project):
         assert key[:12] not in dry.out, (stage, key, dry.out)
 
 
+def test_a_refused_run_writes_no_cache_ref(project):
+    """Rerun of the third probe: a run-navigation refused for a map file that does not load
+    (a refused command stores nothing and its run is discarded) still created
+    ``refs/run-navigation-<profile>.json``: a write by a refused command. It writes none now."""
+    (project / "bad.npz").write_text("not a map")
+    res = nb("run-navigation", "--profile", "tiny.toml", "--estimators", "gt", "--set", "navigation.map=bad.npz")
+    assert res.code == 2, res.output
+    refs = project / "results" / "cache" / "refs"
+    assert not refs.exists() or not any(refs.iterdir()), sorted(refs.iterdir())
+
+
 @pytest.mark.parametrize("option, value", [("--max-tilt", "1e300"), ("--max-tilt", "181"),
                                            ("--max-dt", "1e300"), ("--max-height-dev", "1e9"),
                                            ("--fx", "1e300"), ("--cx", "-1e300")])
