@@ -131,6 +131,7 @@ class _RecordingContext(StageContext):
 
     def run(self, stage, config, inputs, compute, validate=None):
         t0 = time.perf_counter()
+        config = self.keyed(stage, config)  # the same keys as the command's own stages
         path, key, cached = run_stage(self.store, stage, config, inputs, FORMAT[stage], compute,
                                       force=self.forced(stage), log=self.log, validate=validate)
         self.calls.append((stage, key, time.perf_counter() - t0, bool(cached)))

@@ -292,3 +292,26 @@ def test_a_background_process_that_dies_costs_only_time(tmp_path, monkeypatch):
     assert not any(r["name"].endswith("(overlapped)") and r["name"].startswith("fit-map")
                    for r in result.breakdown)  # tiny2's fit ran here
     assert not _pid_alive(killed[0])
+
+
+def test_the_background_context_keys_stages_as_the_command_under_any_version(tmp_path, monkeypatch):
+    """A paper run under navbench-2 showed the background process building every level under
+    other keys than the command (its context bypassed the version's key part), so the command
+    built each level again. Both contexts now key a stage the same way under every version."""
+    from navbench import benchmark
+    from navbench.pipeline.cache import ArtifactStore
+    from navbench.pipeline.overlap import _RecordingContext
+    from navbench.pipeline.stages.context import StageContext
+
+    store = ArtifactStore(tmp_path / "cache")
+    for version in benchmark.VERSIONS:
+        a = StageContext(store=store, benchmark_version=version)
+        b = _RecordingContext(store=store, benchmark_version=version)
+        for stage in ("make-level", "collect-views", "fit-map", "sample-tasks"):
+            cfg = {"x": 1}
+            assert a.keyed(stage, cfg) == b.keyed(stage, cfg)
+        b.calls = []
+        ka = a.run("collect-views", {"x": 1}, {}, lambda d: (d / "f").write_text("a"))[1]
+        kb = b.run("collect-views", {"x": 1}, {}, lambda d: (d / "f").write_text("a"))[1]
+        assert ka == kb, version
+    assert StageContext(store=store, benchmark_version="navbench-2").keyed("collect-views", {"x": 1}) != {"x": 1}

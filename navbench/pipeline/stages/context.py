@@ -53,6 +53,13 @@ class StageContext:
     # found cached here, they are reported as computed beside the episodes, with its seconds
     prefetched: dict = field(default_factory=dict)
 
+    def keyed(self, stage: str, config: Any) -> Any:
+        """``config`` as ``stage``'s key hashes it under this context's benchmark version (its
+        :func:`~navbench.benchmark.key_part` where the version's settings reach the stage)."""
+        if stage in affected_stages(self.benchmark_version):
+            return {**to_jsonable(config), **key_part(self.benchmark_version)}
+        return config
+
     def forced(self, stage: str) -> bool:
         return "*" in self.force or stage in self.force
 
@@ -60,8 +67,7 @@ class StageContext:
             compute: Callable[[Path], None],
             validate: Callable[[Path], None] | None = None) -> tuple[Path, str, bool]:
         t0 = time.perf_counter()
-        if stage in affected_stages(self.benchmark_version):
-            config = {**to_jsonable(config), **key_part(self.benchmark_version)}
+        config = self.keyed(stage, config)
         log = self.log
         if self.prefetched:  # "cached" is what this process saw; say who computed it
             def log(msg: str) -> None:
