@@ -55,19 +55,12 @@ REF05 = {"reference_scale": 0.5}
 
 def version_levers(version: str) -> tuple[dict, dict]:
     """``(estimator options by name, episode settings)`` that benchmark ``version`` fixes
-    (:data:`navbench.benchmark.VERSION_SETTINGS`), for the bench rows that measure a version
-    beside navbench-1 in the same run."""
-    from navbench.benchmark import version_settings
+    (its :func:`navbench.benchmark.settings_document`), for the bench rows that measure a
+    version beside navbench-1 in the same run."""
+    from navbench.benchmark import settings_document
 
-    options: dict = {}
-    episode: dict = {}
-    for key, value in version_settings(version).items():
-        parts = key.split(".")
-        if parts[:2] == ["navigation", "options"] and len(parts) == 4:
-            options.setdefault(parts[2], {})[parts[3]] = value
-        elif parts[:2] == ["navigation", "episode"] and len(parts) == 3:
-            episode[parts[2]] = value
-    return options, episode
+    nav = settings_document(version).get("navigation", {})
+    return nav.get("options", {}), nav.get("episode", {})
 
 
 #: The version the ``_v2`` rows measure beside navbench-1 (issue 36: "the bench measures both
@@ -75,11 +68,12 @@ def version_levers(version: str) -> tuple[dict, dict]:
 V2 = "navbench-2"
 
 
-def _v2_ours(ctx=None) -> tuple[dict, str]:
-    """ours' options (the paper profile's ``reference_scale`` 0.5 and navbench-2's levers) and
-    the camera's texture mode under navbench-2."""
+def _v2_ours() -> dict:
+    """The ``time_control_step`` keywords of ours under navbench-2: its ``options`` (the paper
+    profile's ``reference_scale`` 0.5 and navbench-2's levers) and the camera's ``texture``."""
     options, episode = version_levers(V2)
-    return {**REF05, **options.get("ours", {})}, episode.get("texture", "procedural")
+    return {"options": {**REF05, **options.get("ours", {})},
+            "texture": episode.get("texture", "procedural")}
 
 TRACKERS = (  # (key part, estimator name, options, label)
     ("ours", "ours", {}, "ours, default"),
@@ -546,7 +540,7 @@ TABLE: tuple[Measurement, ...] = (
     *(Measurement(f"{what}_ms_paper_ref05_v2", "control", f"{label} (ours, reference_scale 0.5), paper, {V2}",
                   lambda ctx, n, ex=ex: timers.time_control_step(
                       ctx.level, ctx.vmap, CAMERAS["paper"], n, seed=ctx.seed, budget_s=ctx.budget,
-                      exclude=ex, options=_v2_ours()[0], texture=_v2_ours()[1]),
+                      exclude=ex, **_v2_ours()),
                   repeats=lambda n, _quick: max(n, 10), needs=_estimator_why("ours", _OURS_NA),
                   progress=f"{label} (paper, reference_scale 0.5, {V2})",
                   note=f"as the _ref05 row, with {V2}'s settings (ours' options and the camera's texture mode)")
