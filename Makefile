@@ -33,11 +33,12 @@ paper: setup
 	$(BIN)/navbench all --profile paper
 
 # The acceptance grid of the candidate benchmark version (docs/changelog.md): the same grid under
-# navbench-1 and navbench-2, one database each, then their paired differences (navbench-2 - navbench-1).
+# navbench-1 and navbench-2, one database each, then their paired differences (navbench-2 - navbench-1)
+# and the verdict (compare --acceptance exits 1 when navbench-2 is not accepted).
 acceptance: setup
 	$(BIN)/navbench all --profile acceptance --benchmark-version navbench-1 --db sqlite:///results/acceptance-1.db --report results/acceptance-1
 	$(BIN)/navbench all --profile acceptance --benchmark-version navbench-2 --db sqlite:///results/acceptance-2.db --report results/acceptance-2
-	$(BIN)/navbench compare --db sqlite:///results/acceptance-1.db --b-db sqlite:///results/acceptance-2.db --format markdown
+	$(BIN)/navbench compare --acceptance --db sqlite:///results/acceptance-1.db --b-db sqlite:///results/acceptance-2.db --format markdown
 
 # The documentation site (MkDocs + Material, mkdocs.yml): built into site/, or served with live reload
 # at http://127.0.0.1:8000. --strict: a broken link, a missing anchor or a page left out of the

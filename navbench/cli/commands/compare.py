@@ -45,6 +45,14 @@ def compare(
     benchmark_version: str = typer.Option(None, "--benchmark-version", help="Benchmark version read on both "
                                           "sides " + default("each side's newest; every side names its "
                                                              "version") + ".", show_default=False),
+    accept: bool = typer.Option(False, "--acceptance", help="The acceptance test of a benchmark version "
+                                "change: --db holds the grid under the old version, --b-db under the new; "
+                                "prints every estimator and noise's SPL difference and the paper's claim "
+                                "under both, and exits 1 when the new version is not accepted "
+                                "(docs/changelog.md)."),
+    tolerance: float = typer.Option(0.01, "--tolerance", min=0.0, max=1.0, help="With --acceptance: how far "
+                                    "a cell's mean SPL may move without its interval showing the new "
+                                    "version better."),
 ):
     """Paired differences B - A on the same episodes: two estimators, two sets of runs, two databases.
 
@@ -67,6 +75,9 @@ def compare(
     from navbench.results.compare import markdown, record_rows
     from navbench.results.score import table_records
 
+    if accept:
+        _acceptance(db, b_db, pair, a, b, fmt, level, interval, boot, seed, tolerance)
+        return
     result = run_compare(db=db, pairs=pair or [], a=a, b=b, b_db=b_db, preset=preset,
                          level=parse_list(level) or None, method=interval.value, n_boot=boot, seed=seed,
                          benchmark_version=benchmark_version)
@@ -110,6 +121,45 @@ def compare(
                 out.add_section()
             out.add_row(*(escape(c) for c in cells))
         console.print(out)
+
+
+def _acceptance(db, b_db, pair, a, b, fmt, level, interval, boot, seed, tolerance) -> None:
+    """``compare --acceptance`` (navbench.results.acceptance); exit 1 when not accepted."""
+    import sys
+
+    from rich.markup import escape
+
+    from navbench.cli._common import err_console
+    from navbench.errors import ConfigError
+    from navbench.results.acceptance import acceptance, markdown
+
+    if b_db is None:
+        raise ConfigError("--acceptance compares two databases: give the new version's grid with --b-db URL "
+                         "(--db holds the old one's)")
+    if pair or a is not None or b is not None:
+        raise ConfigError("--acceptance takes whole databases: leave out --pair, --a and --b")
+    if fmt is Format.csv:
+        raise ConfigError("--acceptance prints two tables: use --format table, markdown or json")
+    result = acceptance(db, b_db, tolerance=tolerance, level=parse_list(level) or None, method=interval.value,
+                        n_boot=boot, seed=seed)
+    for w in result.warnings:
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", markup=True)
+    if fmt is Format.json:
+        from navbench.cli._common import print_json
+        from navbench.results.score import table_records
+
+        print_json({"old": result.old, "new": result.new, "accepted": result.accepted,
+                    "tolerance": result.tolerance, "preset": result.preset, "interval": result.interval,
+                    "difference": "new - old", "cells": table_records(result.cells),
+                    "claim": table_records(result.claim), "failures": result.failures})
+    else:
+        text = markdown(result)
+        if fmt is Format.markdown:
+            sys.stdout.write(text)
+        else:
+            console.print(escape(text), markup=False, highlight=False, soft_wrap=True)
+    if not result.accepted:
+        raise typer.Exit(1)
 
 
 def _default_conditions() -> str:
