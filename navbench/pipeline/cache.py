@@ -491,20 +491,15 @@ class _Dir:
 
 
 def _writer_alive(name: str) -> bool:
-    """Whether the process that owns temp dir ``.tmp-<key>-<pid>-<rand>`` still runs."""
+    """Whether the process that owns temp dir ``.tmp-<key>-<pid>-<rand>`` still runs
+    (:func:`navbench.proc.pid_alive`: a zombie does not)."""
+    from navbench.proc import pid_alive
+
     try:
         pid = int(name.split("-")[2])
     except (IndexError, ValueError):
         return False
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+    return pid == os.getpid() or pid_alive(pid)
 
 
 def read_ref(p: Path) -> list[tuple[str, str]]:

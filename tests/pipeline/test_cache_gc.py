@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -219,3 +220,30 @@ def test_a_new_cache_root_gets_the_marker_and_an_existing_folder_does_not(tmp_pa
     with pytest.raises(ConfigError, match="not a navbench cache"):
         ArtifactStore(busy).gc(keep_newest=0)
     assert tree_snapshot(busy) == before
+
+
+def test_temp_dirs_of_live_writers_stay_and_of_zombies_go(tmp_path, monkeypatch):
+    """A temp dir is kept while its writer runs; a writer that exited but was not reaped (a
+    zombie) writes nothing more, so its temp dir is stale (``navbench.proc.pid_alive``)."""
+    root = tmp_path / "cache"
+    _cache(root, 1)
+    live = subprocess.Popen([sys.executable, "-c", "import sys; sys.stdin.read()"], stdin=subprocess.PIPE)
+    zombie = subprocess.Popen([sys.executable, "-c", "pass"])
+    try:
+        for _ in range(200):  # wait until it has exited (not reaped: no wait() before the gc)
+            with open(f"/proc/{zombie.pid}/stat") as f:
+                if f.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    break
+            time.sleep(0.05)
+        kept = root / "s" / f".tmp-abc-{live.pid}-1"
+        gone = root / "s" / f".tmp-abc-{zombie.pid}-1"
+        kept.mkdir()
+        gone.mkdir()
+        monkeypatch.chdir(tmp_path)
+        r = nb("cache", "gc", "--keep-newest", "1", "--root", "cache")
+        assert r.code == 0, r.output
+        assert kept.is_dir() and not gone.exists()
+    finally:
+        live.stdin.close()
+        live.wait(timeout=30)
+        zombie.wait(timeout=30)
