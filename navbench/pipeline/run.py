@@ -105,7 +105,7 @@ def open_db(db: "ResultsDB | str | None") -> Iterator["ResultsDB"]:
 @contextmanager
 def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
                  ctx: "StageContext | None" = None, ref_name: str | None = None,
-                 sim: str = "pymunk") -> Iterator[int]:
+                 sim: str = "pymunk", benchmark_version: str | None = None) -> Iterator[int]:
     """Record a run around the block; yields its run id.
 
     The run row starts as ``running``; it ends ``done`` when the block returns, ``interrupted``
@@ -115,7 +115,8 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     With ``ctx`` and ``ref_name``, the artifacts the block touched (``ctx.used``) become the
     cache ref ``ref_name`` (a gc root), also after a failure, so a resumed run finds them.
     The run row's benchmark version (which every episode row it stores copies) is ``config``'s
-    ``benchmark_version`` (a profile's), else :data:`navbench.benchmark.BENCHMARK_VERSION`,
+    ``benchmark_version`` (a profile's; the argument ``benchmark_version`` where given, as
+    track-eval's), else :data:`navbench.benchmark.BENCHMARK_VERSION`,
     named with the simulator ``sim`` that produces the run's results unless it is pymunk
     (:func:`navbench.benchmark.sim_version`: ``navbench-1+vizdoom``).
     """
@@ -126,7 +127,7 @@ def recorded_run(db: "ResultsDB", profile: str, command: str, config: Any,
     cfg = to_jsonable(config)
     from navbench.benchmark import BENCHMARK_VERSION, sim_version
 
-    version = getattr(config, "benchmark_version", None) or BENCHMARK_VERSION
+    version = benchmark_version or getattr(config, "benchmark_version", None) or BENCHMARK_VERSION
     run_id = db.start_run(profile, command, cfg, config_hash(cfg),
                           benchmark_version=sim_version(version, sim))
     status = "failed"

@@ -154,3 +154,19 @@ def version_line(profile: Profile) -> str:
     if gone:
         line += ", departing: " + "; ".join(f"{k}={v!r} (the version's: {w!r})" for k, (v, w) in gone.items())
     return line
+
+
+def study_settings(version: str, estimators, where: str = "command line",
+                   label: str = "--benchmark-version") -> tuple[str, dict[str, dict]]:
+    """What ``version`` gives a tracking study (``navbench track-eval``): the texture mode of its
+    frames and, per estimator of ``estimators``, the tracker options it fixes. Read through
+    :func:`with_version` from a profile of no settings of its own, so they are the values a
+    ``run-navigation`` under ``version`` gives its episodes' camera (``navigation.episode.texture``)
+    and its trackers (``navigation.options.<estimator>``): one mapping for both. A profile's own
+    navigation options are not the study's (its options are ``--option``), so none is read."""
+    from navbench.pipeline.stages.grid import build_episode_config
+
+    neutral = with_version(Profile("track-eval", estimators=tuple(estimators)), version, where, label)
+    texture = build_episode_config(neutral.episode).texture
+    return texture, {name: dict(neutral.estimator_options[name]) for name in estimators
+                     if neutral.estimator_options.get(name)}

@@ -193,6 +193,18 @@ def _cdf_groups(episodes: "pandas.DataFrame", tracking: "pandas.DataFrame"):
     return src, loc, rot, styles
 
 
+def _versioned_tracking(tracking: "pandas.DataFrame", version: str | None):
+    """``(rows, version, note)``: the tracking-study rows of ``version`` (the episodes'), or
+    with no episodes of the newest version the rows hold; rows of two versions are never pooled."""
+    from navbench.results.versions import choose_version, versions_of
+
+    if version is None:
+        return choose_version(tracking, None, "the tracking-study rows")
+    same = versions_of(tracking) == version
+    note = None if same.all() else f"{int((~same).sum())} tracking-study row(s) of another version left out."
+    return tracking[same].reset_index(drop=True), version, note
+
+
 def _level_file(levels_dir: Path, name: str, meta: dict | None) -> Path | None:
     candidates = [levels_dir / f"{name}.json"]
     if meta and isinstance(meta.get("path"), str):
@@ -533,13 +545,13 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
                                                        benchmark_version=benchmark_version)
     episodes = apply_preset(selected, preset)
     table = summarise(episodes, n_boot=n_boot, seed=seed) if not episodes.empty else None
-    tracking = db.tracking_frame()
+    tracking, version, track_note = _versioned_tracking(db.tracking_frame(), version)
 
     from navbench.report.claim import section_claim, section_failures
 
     if version is not None:
-        page.p(f"Benchmark version {version}: every navigation score below is of this version only."
-               + (f" {version_note}" if version_note else ""), "meta")
+        page.p(f"Benchmark version {version}: every navigation score and tracking figure below is "
+               "of this version only." + "".join(f" {n}" for n in (version_note, track_note) if n), "meta")
     _section_runs(page, runs)
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)

@@ -87,18 +87,20 @@ class PoseRenderer:
     1/65536 turn: the engine's pose is the truth, :mod:`navbench.sim.doom.simulator`). The
     engine is teleported without navbench's collision check (a view or a recorded pose is
     placed, not driven). ``options``: the engine simulator's own (``depth="exact"``,
-    ``edge_steps``; :class:`~navbench.sim.doom.simulator.DoomSimulator`). Use as a context
-    manager or call :meth:`close`.
+    ``edge_steps``; :class:`~navbench.sim.doom.simulator.DoomSimulator`). ``texture``: the pymunk
+    camera's texture mode (:mod:`navbench.sim.texels`; an engine renders its own textures and
+    ignores it). Use as a context manager or call :meth:`close`.
     """
 
-    def __init__(self, sim: str, level, intrinsics, camera_height: float, **options):
+    def __init__(self, sim: str, level, intrinsics, camera_height: float, texture: str = "procedural",
+                 **options):
         check_sim(sim)
         self.sim = sim
         self.shown = None
         if sim == REFERENCE_SIM:
             from navbench.sim.camera import RaycastCamera
 
-            self._camera = RaycastCamera(level, intrinsics, camera_height)
+            self._camera = RaycastCamera(level, intrinsics, camera_height, texture=texture)
             self._engine = None
         else:
             self._camera = None

@@ -79,6 +79,13 @@ class TrackingStudyConfig:
     # "vizdoom" the engine renders every recorded pose, and the pose it shows (to the centimetre
     # and 1/65536 turn) is the truth the errors are measured against. Left out of the key at "pymunk".
     sim: str = "pymunk"
+    # issue 36: how the frames' textures are evaluated (navbench.sim.texels: "procedural", every
+    # navbench-1 frame; "table" under navbench-2; the pymunk camera's, an engine has its own) and
+    # the benchmark version the study runs under (navbench.benchmark; the CLI sets the frames'
+    # texture and the trackers' options from it, navbench.pipeline.versioning.study_settings).
+    # Left out of the key at "procedural" and navbench-1.
+    texture: str = "procedural"
+    benchmark_version: str = "navbench-1"
 
     def __post_init__(self):
         if self.trajectories < 1 or self.seeds < 1 or self.steps < 1:
@@ -103,6 +110,14 @@ class TrackingStudyConfig:
         from navbench.sim.backends import check_sim
 
         check_sim(self.sim)
+        from navbench.benchmark import UnknownVersion, check_version
+        from navbench.sim.texels import check_texture
+
+        check_texture(self.texture, "tracking study texture")
+        try:
+            check_version(self.benchmark_version, "tracking study benchmark version")
+        except UnknownVersion as e:
+            raise ConfigError(str(e)) from None
         if self.kidnap_every and self.odometry != "body":
             raise ConfigError("--kidnap-every needs --odometry body (world-frame controls would "
                               "tell the estimators the new true heading)")
@@ -237,7 +252,8 @@ def run_tracking_study(level, vmap, config: TrackingStudyConfig = TrackingStudyC
     from navbench.geometry import camera_by_name
     from navbench.sim.backends import PoseRenderer
 
-    camera = PoseRenderer(config.sim, level, camera_by_name(config.camera), config.camera_height)
+    camera = PoseRenderer(config.sim, level, camera_by_name(config.camera), config.camera_height,
+                          texture=config.texture)
     try:
         return _replay(level, vmap, config, trajectories, progress, health_thresholds, camera)
     finally:

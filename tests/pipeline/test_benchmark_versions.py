@@ -130,6 +130,34 @@ def test_report_names_its_version_and_leaves_the_other_out(db, tmp_path):
     assert "Benchmark version navbench-1" in old
 
 
+def _tracking(db, version, study, locs):
+    r = db.start_run("track-eval", "track-eval", {}, study, benchmark_version=version)
+    db.add_tracking_rows(r, [dict(study_key=study, level="l1", estimator="dynamics", estimator_options={},
+                                  noise="tracking", trajectory_id=i, seed=0, loc_rmse_m=v, rot_rmse_deg=1.0,
+                                  step_ms_median=0.01) for i, v in enumerate(locs)])
+
+
+def test_tracking_rows_store_their_version_and_the_report_never_pools_them(db, tmp_path):
+    """track-eval's rows copy their run's version (as episodes do); the report's Fig. 4 rows are
+    of one version: the episodes', else the newest the tracking rows hold."""
+    import pandas as pd
+
+    from navbench.report.build import build_report
+
+    _tracking(db, None, "s1", [0.1, 0.1])            # navbench-1 (the current version)
+    _tracking(db, "navbench-9", "s9", [0.5, 0.5, 0.5])
+    assert db.tracking_frame()["benchmark_version"].tolist() == ["navbench-1"] * 2 + ["navbench-9"] * 3
+    index = build_report(db, tmp_path / "rep", n_boot=50)
+    summary = pd.read_csv(tmp_path / "rep" / "tracking_summary.csv")
+    assert summary["trajectories"].tolist() == [3] and summary["loc_rmse_median_m"].tolist() == [0.5]
+    assert "Benchmark version navbench-9" in index.read_text() and "never pooled" in index.read_text()
+    _two_versions(db)  # episodes of navbench-1 and navbench-9: the report of navbench-1
+    old = build_report(db, tmp_path / "rep1", n_boot=50, benchmark_version="navbench-1").read_text()
+    summary = pd.read_csv(tmp_path / "rep1" / "tracking_summary.csv")
+    assert summary["trajectories"].tolist() == [2] and summary["loc_rmse_median_m"].tolist() == [0.1]
+    assert "3 tracking-study row(s) of another version left out" in old
+
+
 def test_compare_names_each_sides_version_and_warns_across_versions(db):
     from navbench.results.compare import compare
 

@@ -237,13 +237,13 @@ def test_track_eval_1000_steps_with_a_tiny_count_and_kidnapping(tmp_path, level,
 
 
 def test_new_study_fields_leave_existing_keys_alone():
-    """At their defaults kidnap_every, odometry, collisions and sim are not hashed: every stored
-    study keeps its key."""
+    """At their defaults kidnap_every, odometry, collisions, sim, texture and benchmark_version
+    are not hashed: every stored study keeps its key."""
     from navbench.config import to_jsonable
     from navbench.pipeline.stages.track_eval import study_key_config
 
     old = to_jsonable(TrackingStudyConfig())
-    for k in ("kidnap_every", "odometry", "collisions", "sim"):
+    for k in ("kidnap_every", "odometry", "collisions", "sim", "texture", "benchmark_version"):
         old.pop(k)
     assert study_key_config(TrackingStudyConfig()) == old
     kid = study_key_config(TrackingStudyConfig(kidnap_every=7, odometry="body"))

@@ -6,7 +6,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, parse_estimator_options, parse_list, print_json
-from navbench.cli._help import DB_HELP, SET_HELP, SIM_HELP, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, SIM_HELP, default, profile_help
 from navbench.pipeline.profiles import MAX_SEEDS, MAX_TASKS  # light
 
 
@@ -30,6 +30,15 @@ def register(app: typer.Typer) -> None:
         profile: str = typer.Option(None, "--profile", help=profile_help("Profile whose fit settings "
                                                                           "build the map with --map fit")),
         sets: list[str] = typer.Option(None, "--set", metavar="KEY=VALUE", help=SET_HELP),
+        benchmark_version: str = typer.Option(None, "--benchmark-version", metavar="NAME",
+                                              help="Benchmark version of the study: its frames' "
+                                              "textures and its trackers' options (as run-navigation's "
+                                              "episodes under it), and with --map fit the map's views "
+                                              "and fit; --option wins over the version's tracker "
+                                              "options " + default("with --map fit the profile's "
+                                                                   "benchmark_version, else the "
+                                                                   "current version") + ".",
+                                              show_default=False),
         seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Trajectory recording seed."),
         noise: str = typer.Option("tracking", "--noise", help="Noise level of the recorded "
                                   "trajectories: tracking (the paper's study), none, low, mid, high."),
@@ -92,7 +101,21 @@ def register(app: typer.Typer) -> None:
             raise ConfigError(f"--set: changes the profile's map settings, which only --map fit reads (--map {map_})")
         from navbench.pipeline.overrides import apply_sets
 
-        prof = apply_sets(load_profile(profile), sets) if map_ == "fit" else None
+        from navbench.pipeline.versioning import study_settings, with_version
+
+        prof = None
+        if map_ == "fit":  # the map's views and fit under the version, as `navbench all`'s
+            prof = load_profile(profile)
+            if benchmark_version is not None:
+                prof = with_version(prof, benchmark_version, "command line", "--benchmark-version")
+            prof = apply_sets(prof, sets)
+            benchmark_version = prof.benchmark_version
+        elif benchmark_version is None:
+            from navbench.benchmark import BENCHMARK_VERSION
+
+            benchmark_version = BENCHMARK_VERSION
+        # the frames' texture and the trackers' options of the version (an unknown one: one line)
+        texture, version_opts = study_settings(benchmark_version, names)
         from navbench.sim.backends import require_sim
 
         if sim is None:
@@ -122,6 +145,8 @@ def register(app: typer.Typer) -> None:
         if emission_trajectories is None:
             emission_trajectories = default_trajectories(steps, 1000, 10)
         opts = {"emission": {} if paper_budget else dict(STUDY_EMISSION_OPTIONS)}
+        for name, o in version_opts.items():  # the version's, under what --option says
+            opts.setdefault(name, {}).update(o)
         for name, o in parsed_options.items():
             opts.setdefault(name, {}).update(o)
         cfg = TrackingStudyConfig(trajectories=trajectories, seeds=seeds, steps=steps,
@@ -129,7 +154,7 @@ def register(app: typer.Typer) -> None:
                                   estimator_options=opts,
                                   trajectory_limits={"emission": emission_trajectories},
                                   kidnap_every=kidnap_every, odometry=odometry, collisions=collisions,
-                                  sim=sim)
+                                  sim=sim, texture=texture, benchmark_version=benchmark_version)
         from navbench.track.registry import uses_map
 
         needs_map = any(uses_map(n) for n in names)
@@ -142,7 +167,8 @@ def register(app: typer.Typer) -> None:
             vmap = study_map(ctx, map_, level_ref, prof, needs_map)
             config = {"level": level_ref.key, "map": vmap.key, "study": cfg}
             record = nullcontext() if rdb is None else recorded_run(
-                rdb, "track-eval", command_line(), config, ctx, f"track-eval-{level_ref.name}", sim=sim)
+                rdb, "track-eval", command_line(), config, ctx, f"track-eval-{level_ref.name}", sim=sim,
+                benchmark_version=benchmark_version)
             with record as run_id:
                 ref = track_eval_stage(ctx, level_ref, vmap, cfg)
                 res = load_study(ref.path)
@@ -157,12 +183,14 @@ def register(app: typer.Typer) -> None:
         lvl_name = level_ref.name
         summary = summarise(res)
         raw = raw_odometry_summary(res)
+        line = study_version_line(cfg, version_opts, prof)
         if json_out:
             meta = {"level": lvl_name, "map": map_, "map_key": vmap.key, "study_key": ref.key,
                     "cached": ref.cached, "camera": camera, "trajectories": trajectories,
                     "steps": steps, "seeds": seeds, "options": opts, "noise": noise,
                     "odometry": odometry, "kidnap_every": kidnap_every, "raw_odometry": raw,
-                    "collisions": collisions, "sim": sim,
+                    "collisions": collisions, "sim": sim, "benchmark_version": benchmark_version,
+                    "version_line": line,
                     "collided_trajectories": int(sum(res["trajectories"]["collided"])),
                     "trajectory_limits": cfg.trajectory_limits,
                     "wall_s": round(time.perf_counter() - t0, 3), "stored": stored,
@@ -171,6 +199,7 @@ def register(app: typer.Typer) -> None:
             return
         from rich.table import Table
 
+        console.print(line, markup=False)
         t = Table(title=escape(f"tracking on {lvl_name} ({trajectories} x {steps} steps, noise {noise}, "
                                f"odometry {odometry}, map {map_}, camera {camera}"
                                + (f", sim {sim}" if sim != "pymunk" else "")
@@ -196,6 +225,21 @@ def register(app: typer.Typer) -> None:
         console.print(f"took {time.perf_counter() - t0:.1f} s"
                       + (" (cached study: step times are those of the run that computed it)"
                          if ref.cached else ""), markup=False)
+
+
+def study_version_line(cfg, version_opts: dict[str, dict], prof=None) -> str:
+    """One line naming the study's benchmark version and where it departs from it: a tracker
+    option ``--option`` set to another value than the version's, and with ``--map fit`` the
+    map profile's departures (:func:`navbench.pipeline.versioning.version_line`)."""
+    from navbench.config import canonical_json
+    from navbench.pipeline.versioning import departures
+
+    gone = [] if prof is None else [f"{k}={v!r} (the version's: {w!r})" for k, (v, w) in departures(prof).items()]
+    for name, fixed in version_opts.items():
+        have = cfg.estimator_options.get(name, {})
+        gone += [f"{name}.{k}={have[k]!r} (the version's: {v!r})" for k, v in fixed.items()
+                 if canonical_json(have.get(k)) != canonical_json(v)]
+    return f"benchmark {cfg.benchmark_version}" + (", departing: " + "; ".join(gone) if gone else "")
 
 
 def _finite(obj):

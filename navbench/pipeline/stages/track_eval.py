@@ -134,14 +134,18 @@ def _load_map_file(path: Path):
 
 #: Study-config fields added after studies were stored, with the defaults that leave them out of
 #: the cache key (so every study stored before them keeps its key).
-_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze", "sim": "pymunk"}
+_KEY_DEFAULTS = {"kidnap_every": 0, "odometry": "world", "collisions": "freeze", "sim": "pymunk",
+                 "texture": "procedural"}
 
 
 def study_key_config(cfg) -> dict:
     """The study config as hashed into the track-eval key: every field, except those of
     :data:`_KEY_DEFAULTS` while at their default; estimator options as
     :func:`~navbench.track.trackconfig.keyed_options` keys them; with recovery on, the
-    relocalisers' settings (:func:`~navbench.track.relocalize.relocalizer_settings`)."""
+    relocalisers' settings (:func:`~navbench.track.relocalize.relocalizer_settings`); the
+    benchmark version as :func:`navbench.benchmark.key_part` keys it (nothing for
+    ``navbench-1``, ``{"benchmark": NAME}`` for any later one, as every navigation cell: a study
+    is a result of its version whatever its estimators read)."""
     from navbench.config import to_jsonable
     from navbench.track.relocalize import relocalizer_settings
     from navbench.track.trackconfig import keyed_options
@@ -154,7 +158,10 @@ def study_key_config(cfg) -> dict:
     for k, default in _KEY_DEFAULTS.items():
         if d.get(k) == default:
             d.pop(k, None)
-    return d
+    from navbench.benchmark import LEGACY_VERSION, key_part
+
+    version = d.pop("benchmark_version", LEGACY_VERSION)
+    return {**d, **key_part(version)}
 
 
 def track_eval_stage(ctx: StageContext, level: Ref, vmap: StudyMap, cfg) -> Ref:

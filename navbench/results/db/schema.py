@@ -85,7 +85,8 @@ _ADDED_COLUMNS = (("runs", "pid"), ("runs", "proc_start"),
                   ("tracking", "kidnaps_detected"), ("tracking", "kidnaps_recovered"),
                   ("tracking", "alarms"), ("tracking", "false_alarms"),
                   # benchmark versions (navbench.benchmark): NULL is navbench-1
-                  ("runs", "benchmark_version"), ("episodes", "benchmark_version"))
+                  ("runs", "benchmark_version"), ("episodes", "benchmark_version"),
+                  ("tracking", "benchmark_version"))
 #: PostgreSQL advisory lock key held while creating tables ("navbench" in ASCII).
 _PG_SCHEMA_LOCK = 0x6E617662656E6368
 
@@ -225,6 +226,9 @@ class TrackingRow(Base):
     kidnaps_recovered: Mapped[int | None] = mapped_column(Integer, nullable=True)
     alarms: Mapped[int | None] = mapped_column(Integer, nullable=True)
     false_alarms: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    # added within schema version 1: the run's benchmark version (navbench.benchmark), copied
+    # as the episodes' (NULL in rows stored before: navbench-1)
+    benchmark_version: Mapped[str | None] = mapped_column(String(32), nullable=True)
 
 
 class BenchRow(Base):

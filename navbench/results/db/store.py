@@ -368,13 +368,16 @@ class ResultsDB(RunBookkeeping):
     def add_tracking_rows(self, run_id: int, rows: list[dict]) -> int:
         """Insert tracking-study rows (study_key, level, estimator, estimator_options, noise,
         trajectory_id, seed, steps, loc_rmse_m, rot_rmse_deg, step_ms_median, render_ms,
-        estimate_ms, traj_key, map_key), ignoring duplicates; returns how many were new."""
+        estimate_ms, traj_key, map_key), ignoring duplicates; returns how many were new. Each
+        row copies the run's benchmark version (:meth:`run_version`)."""
         clean = self._normalise(rows, _TRACKING_FIELDS, _TRACKING_REQUIRED, "tracking",
                                 json_fields=("estimator_options",))
         now = _utcnow()
+        version = self.run_version(run_id)
         for r in clean:
             r["run_id"] = int(run_id)
             r["recorded"] = now
+            r["benchmark_version"] = version  # the run's, as every episode row copies it
         with self._begin() as conn:
             return self._insert_ignore(conn, TrackingRow, clean,
                                        ("study_key", "estimator", "trajectory_id", "seed"))
