@@ -276,3 +276,46 @@ def test_health_calibration_views_from_the_engine(tmp_path):
     views = load_views(ctx.store.path(stage, key) / "views")
     assert len(views.poses) == 200 and (views.intrinsics.fx, views.intrinsics.fy) == (80.0, 94.0)
     assert np.abs(views.poses[:, :2] * 100 - np.rint(views.poses[:, :2] * 100)).max() < 1e-6  # the engine's poses
+
+
+def test_the_report_keeps_engine_studies_apart(tmp_path, monkeypatch):
+    """A pymunk and a vizdoom study of one level are two rows of the report's table, each
+    naming its benchmark version, and two curves of its CDF (neither overwrites the other)."""
+    from navbench.report.localize import localization_table, section_localization
+    from navbench.results.db import ResultsDB
+
+    db = ResultsDB(f"sqlite:///{tmp_path / 'r.db'}")
+    for version, key, err in (("navbench-1", "a" * 64, 0.1), ("navbench-1+vizdoom", "b" * 64, 2.0)):
+        run = db.start_run("localize-eval", "test", {}, key, benchmark_version=version)
+        db.add_localize_rows(run, [{"study_key": key, "level": "tiny", "query_id": i, "true_x": 1.0,
+                                    "true_y": 1.0, "true_theta": 0.0, "est_x": 1.0 + err, "est_y": 1.0,
+                                    "est_theta": 0.0, "loc_err_m": err, "heading_err_deg": 1.0,
+                                    "query_ms": 5.0, "query_cpu_ms": 5.0, "image_diff": 0.0} for i in range(3)])
+    runs = db.runs_frame()
+    table = localization_table(db.localize_frame(), dict(zip(runs["id"], runs["benchmark_version"])))
+    assert list(table["benchmark"]) == ["navbench-1", "navbench-1+vizdoom"]
+    assert list(table["recall_50cm"]) == [1.0, 0.0]
+
+    class Page:
+        def __init__(self):
+            self.figures, self.tables = [], []
+
+        def h2(self, *a):
+            pass
+
+        def note(self, *a):
+            pass
+
+        def table(self, t, *a):
+            self.tables.append(t)
+
+        def figure(self, draw, caption, size):
+            self.figures.append((draw, caption))
+
+    page = Page()
+    captured = {}
+    monkeypatch.setattr("navbench.report.plots.plot_cdf", lambda ax, groups, *a, **k: captured.update(groups))
+    section_localization(page, db, tmp_path)
+    page.figures[0][0](type("Fig", (), {"add_subplot": lambda self: None})())
+    assert sorted(captured) == ["tiny", "tiny vizdoom"]
+    db.close()
