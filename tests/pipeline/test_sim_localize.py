@@ -319,3 +319,34 @@ def test_the_report_keeps_engine_studies_apart(tmp_path, monkeypatch):
     page.figures[0][0](type("Fig", (), {"add_subplot": lambda self: None})())
     assert sorted(captured) == ["tiny", "tiny vizdoom"]
     db.close()
+
+
+def test_the_reports_goal_strip_draws_the_engines_goal_image(tmp_path, monkeypatch):
+    """An engine row's goal image in the report is the engine's frame (what the agent was given);
+    a pymunk row's the ray-cast one; without the engine, the ray-cast one titled as such."""
+    _require_vizdoom()
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from navbench.levelio import save_level
+    from navbench.report.goals import _draw_goals
+    from navbench.sim.backends import PoseRenderer
+    from navbench.sim.camera import RaycastCamera
+
+    path = save_level(tiny_level(), tmp_path / "tiny.json")
+    tasks = pd.DataFrame({"task_set_key": ["t", "t"], "task_id": [0, 1], "target_x": [0.6, 2.4],
+                          "target_y": [0.6, 1.8]})
+    rows = pd.DataFrame({"task_set_key": ["t", "t"], "task_id": [0, 1], "goal_heading": [0.3, -2.0],
+                         "goal_status": ["ok", "failed"], "goal_err_m": [0.01, 1.5],
+                         "benchmark_version": ["navbench-1+vizdoom", None]})
+    fig = Figure()
+    _draw_goals(fig, rows, path, tasks)
+    with PoseRenderer("vizdoom", tiny_level(), HALF_CAMERA, CAMERA_HEIGHT) as engine:
+        np.testing.assert_array_equal(fig.axes[0].images[0].get_array(), engine.render(np.array([0.6, 0.6, 0.3])).rgb)
+    ray = RaycastCamera(tiny_level(), HALF_CAMERA, CAMERA_HEIGHT).render(np.array([2.4, 1.8, -2.0])).rgb
+    np.testing.assert_array_equal(fig.axes[1].images[0].get_array(), ray)
+    monkeypatch.setitem(sys.modules, "vizdoom", None)
+    fig = Figure()
+    _draw_goals(fig, rows, path, tasks)
+    assert fig.axes[0].get_title().endswith("(ray-cast: vizdoom not installed)")
+    assert not fig.axes[1].get_title().endswith("installed)")
