@@ -490,7 +490,7 @@ def one_sided_confidence(dq, vq, dp, vp, dc, tol_abs: float, tol_rel: float, tol
     vq = np.asarray(vq, bool) & np.isfinite(dq)
     both = vq & np.asarray(vp, bool) & np.isfinite(dp)
     tol = tol_abs + tol_rel * np.where(vq, dq, 0.0)
-    diff = np.where(both, dq - dp, 0.0)
+    diff = np.subtract(dq, dp, out=np.zeros_like(dq), where=both)  # no inf - inf where neither counts
     near = both & (np.abs(diff) <= tol)
     ok = near & (np.asarray(dc) <= tol_colour)
     n_ok = int(ok.sum())

@@ -211,9 +211,12 @@ def validate(p: Profile, where: str | None = None) -> None:
             raise ConfigError(f"{where}: sim {p.sim}: pose_quantisation must be off (the engine "
                               "quantises the pose itself: to the centimetre and 1/65536 turn); add "
                               "--condition pose_quantisation=off (or --set conditions.pose_quantisation=off)")
-        if p.goal != "point":
-            raise ConfigError(f"{where}: sim {p.sim}: goal {p.goal!r} is not supported (goal images "
-                              "are rendered by the ray-cast camera); use goal = \"point\"")
+        from navbench.results.labels import ONLINE_MAPS
+
+        if p.map_source in ONLINE_MAPS:  # the known-map image goals run on the engine
+            raise ConfigError(f"{where}: sim {p.sim}: map {p.map_source!r} (the unknown-house loop) is not "
+                              "supported on the engine (its goal image and sensing are the ray-cast "
+                              "camera's); use map = \"fit\" or \"true\"")
 
 
 def grid_size(p: Profile) -> int:

@@ -246,7 +246,7 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
         if goals:
             from navbench.pipeline.stages.inputs import with_image_goals
 
-            inputs = [with_image_goals(ctx, li, cfg.image_goal) for li in inputs]
+            inputs = [with_image_goals(ctx, li, cfg.image_goal, cfg.sim) for li in inputs]
         with make_executor(executor, profile.workers, address) as ex:
             t0 = time.perf_counter()
             summary = run_navigation_stage(ctx, run_id, inputs, cfg, executor=ex, chunk_size=chunk_size,
@@ -291,7 +291,7 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
             if goals:
                 from navbench.pipeline.stages.inputs import with_image_goals
 
-                li = with_image_goals(ctx, li, cfg.image_goal)
+                li = with_image_goals(ctx, li, cfg.image_goal, cfg.sim)
             inputs.append(li)
             t0 = time.perf_counter()
             part = run_navigation_stage(ctx, run_id, [li], cfg, executor=ex, chunk_size=chunk_size,

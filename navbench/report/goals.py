@@ -149,20 +149,50 @@ def section_goals(page: Any, episodes, levels_dir: Path | None = None, tasks=Non
 
 
 def _draw_goals(fig, rows, level_path: Path, tasks) -> None:
-    """Each row's goal image (its RGB) with its localisation status in the title."""
+    """Each row's goal image (its RGB) with its localisation status in the title: the engine's
+    frame for a row of an engine version (``navbench-1+vizdoom``: the image the agent was given,
+    issue 37), drawn ray-cast and titled so where the engine is not installed."""
     import numpy as np
 
+    from navbench.benchmark import REFERENCE_SIM, split_version
     from navbench.geometry import CAMERA_HEIGHT, camera_by_name
     from navbench.levelio import load_level
     from navbench.sim.camera import RaycastCamera
 
     level = load_level(level_path)
     cam = RaycastCamera(level, camera_by_name("half"), CAMERA_HEIGHT)
+    engines: dict = {}
     by_task = {(t.task_set_key, int(t.task_id)): (t.target_x, t.target_y) for t in tasks.itertuples()}
-    for i, r in enumerate(rows.itertuples()):
-        ax = fig.add_subplot(1, len(rows), i + 1)
-        x, y = by_task[(r.task_set_key, int(r.task_id))]
-        frame = cam.render(np.array([x, y, float(r.goal_heading)]))
-        ax.imshow(frame.rgb)
-        ax.set_title(f"task {int(r.task_id)}: {r.goal_status}, {r.goal_err_m:.2f} m", fontsize=8)
-        ax.set_axis_off()
+    try:
+        for i, r in enumerate(rows.itertuples()):
+            ax = fig.add_subplot(1, len(rows), i + 1)
+            x, y = by_task[(r.task_set_key, int(r.task_id))]
+            pose = np.array([x, y, float(r.goal_heading)])
+            version = getattr(r, "benchmark_version", None)
+            sim = split_version(version if isinstance(version, str) else "navbench-1")[1]
+            engine, note = _engine(engines, sim, level) if sim != REFERENCE_SIM else (None, "")
+            frame = (engine or cam).render(pose)
+            ax.imshow(frame.rgb)
+            ax.set_title(f"task {int(r.task_id)}: {r.goal_status}, {r.goal_err_m:.2f} m{note}", fontsize=8)
+            ax.set_axis_off()
+    finally:
+        for engine in engines.values():
+            if engine is not None:
+                engine.close()
+
+
+def _engine(engines: dict, sim: str, level):
+    """``(renderer, title note)``: simulator ``sim``'s goal camera (kept in ``engines``), or
+    ``(None, " (ray-cast: <sim> not installed)")``."""
+    from navbench.errors import ConfigError
+
+    if sim not in engines:
+        from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+        from navbench.sim.backends import PoseRenderer, require_sim
+
+        try:
+            require_sim(sim)
+            engines[sim] = PoseRenderer(sim, level, camera_by_name("half"), CAMERA_HEIGHT)
+        except ConfigError:
+            engines[sim] = None
+    return engines[sim], "" if engines[sim] is not None else f" (ray-cast: {sim} not installed)"

@@ -287,3 +287,20 @@ def test_near_tied_candidates_are_refined_past_the_first_verified(loc, monkeypat
 
     with pytest.raises(LocalizationError, match="close_margin must be >= 0"):
         run(close_margin=-0.1)
+
+
+def test_one_sided_confidence_is_silent_on_infinite_invalid_depths():
+    """The engine's frames (``--sim vizdoom``) mark invalid pixels with depth +inf: where both
+    the query and the prediction are inf the check printed numpy's "invalid value encountered in
+    subtract" on every localised query; the counts were right, the warning was noise."""
+    import warnings
+
+    dq = np.array([1.0, np.inf, 2.0, np.inf])
+    dp = np.array([1.0, np.inf, np.inf, 2.0])
+    vq = np.array([1, 0, 1, 0], bool)
+    vp = np.array([1, 0, 0, 1], bool)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        conf, weighted, ok = one_sided_confidence(dq, vq, dp, vp, np.zeros(4), 0.05, 0.1, 0.1)
+    np.testing.assert_array_equal(ok, [1, 0, 0, 0])
+    assert conf == pytest.approx(1 / 2) and weighted == pytest.approx(1 / 2)

@@ -6,7 +6,7 @@ import typer
 from rich.markup import escape
 
 from navbench.cli._common import console, print_json
-from navbench.cli._help import DB_HELP, SET_HELP, profile_help
+from navbench.cli._help import DB_HELP, SET_HELP, SIM_HELP, profile_help
 
 #: The object-change difficulties ``--changes`` accepts (RNR-Map Table 2).
 OC_NAMES = ("OC1", "OC2", "OC3", "OC4")
@@ -32,6 +32,9 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", min=0, max=2**63 - 1, help="Query (and changed-level) seed."),
         option: list[str] = typer.Option([], "--option", "-o", help="Localiser setting KEY=VALUE "
                                          "(a LocalizerConfig field, repeatable), e.g. min_candidates=5."),
+        sim: str = typer.Option(None, "--sim", help=SIM_HELP + " The query frames are its; on vizdoom "
+                                "the pose the engine shows is the query's true pose \\[default: the "
+                                "profile's sim with --map fit, else pymunk]."),
         json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
         db: str = typer.Option(None, "--db", help=DB_HELP),
         no_store: bool = typer.Option(False, "--no-store", help="Do not store the per-query rows "
@@ -52,7 +55,8 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.run import open_db, recorded_run, stage_context
         from navbench.pipeline.stages import study_level, study_map
         from navbench.pipeline.stages.localize import (LocalizeEvalConfig, load_localize_results,
-                                                       localize_eval_stage, summarise_localization)
+                                                       localize_eval_stage, localize_key_config,
+                                                       summarise_localization)
 
         if changes is not None and changes.upper() not in OC_NAMES:
             raise ConfigError(f"--changes: expected one of {', '.join(OC_NAMES)}, got {changes!r}")
@@ -67,8 +71,17 @@ def register(app: typer.Typer) -> None:
         from navbench.pipeline.overrides import apply_sets
 
         prof = apply_sets(load_profile(profile), sets) if map_ == "fit" else None
+        from navbench.sim.backends import require_sim
+
+        if sim is None:
+            sim = prof.sim if prof is not None else "pymunk"
+        require_sim(sim)  # a known name, and vizdoom installed: before anything is built
+        if prof is not None:  # --map fit: the map of the same simulator's views (as track-eval)
+            from navbench.pipeline.profiles import override
+
+            prof = override(prof, sim=sim)
         cfg = LocalizeEvalConfig(queries=queries, seed=seed, camera=camera, changes=changes,
-                                 localizer=_localizer_config(option), sampling=sampling).resolved()
+                                 localizer=_localizer_config(option), sampling=sampling, sim=sim).resolved()
         t0 = time.perf_counter()
 
         def body(ui):
@@ -76,9 +89,12 @@ def register(app: typer.Typer) -> None:
                 ctx = stage_context(ui, rdb)
                 level_ref = study_level(ctx, level, prof)
                 vmap = study_map(ctx, map_, level_ref, prof)
-                config = {"level": level_ref.key, "map": vmap.key, "localize": cfg}
+                # the study as keyed: its sim only when not pymunk (a pymunk run's config as before)
+                config = {"level": level_ref.key, "map": vmap.key,
+                          "localize": localize_key_config(cfg)["study"]}
                 record = nullcontext() if rdb is None else recorded_run(
-                    rdb, "localize-eval", command_line(), config, ctx, f"localize-eval-{level_ref.name}")
+                    rdb, "localize-eval", command_line(), config, ctx, f"localize-eval-{level_ref.name}",
+                    sim=sim)  # the run's benchmark version names the simulator (navbench-1+vizdoom)
                 with record as run_id:
                     ref = localize_eval_stage(ctx, level_ref, vmap, cfg)
                     res = load_localize_results(ref.path)
@@ -93,14 +109,14 @@ def register(app: typer.Typer) -> None:
                                       "study_key": ref.key, "bank_key": ref.meta["bank_key"],
                                       "cached": ref.cached, "bank_cached": ref.meta["bank_cached"],
                                       "camera": camera, "changes": changes, "seed": seed,
-                                      "sampling": sampling,
+                                      "sampling": sampling, "sim": sim,
                                       "wall_s": round(time.perf_counter() - t0, 3), "stored": stored}})
             return
         from rich.table import Table
 
         title = f"localisation on {level_ref.name} ({queries} queries, map {map_}, camera {camera}"
         title += f", changes {changes}" if changes else ""
-        title += f", {sampling} queries)"
+        title += f", {sampling} queries" + (f", sim {sim})" if sim != "pymunk" else ")")
         t = Table(title=escape(title))
         t.add_column("figure")
         t.add_column("value", justify="right")

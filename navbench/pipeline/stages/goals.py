@@ -9,6 +9,11 @@ goal heading, the found pose (the target the agent plans to), the confidence, th
 error against the true target. It is keyed by the level, map and task-set keys and the
 :class:`ImageGoalConfig`. Localisation depends on neither estimator nor noise, so it runs once
 per task, not once per episode; workers read the found targets from the artifact.
+
+Simulator (issue 37): on ``vizdoom`` the goal image is the engine's frame at the goal pose
+(:class:`~navbench.sim.backends.PoseRenderer`; the engine places it to the whole centimetre and
+1/65536 turn), localised with the engine's projection, as the agent's own frames are; the
+simulator joins the key only when it is not pymunk (:func:`image_goals_key_config`).
 """
 
 from __future__ import annotations
@@ -75,16 +80,27 @@ class _MapHandle:
         return load_world_model(self._path)
 
 
-def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg: ImageGoalConfig) -> Ref:
-    """Localise every task's goal image of ``tasks`` in ``vmap`` (see the module docstring);
-    the artifact ``goals.json``."""
+def image_goals_key_config(cfg: ImageGoalConfig, sim: str = "pymunk") -> dict:
+    """What the image-goals key hashes: ``cfg``'s fields, plus the simulator when it is not the
+    reference one (:func:`navbench.benchmark.sim_key_part`; a pymunk key is the one stored before)."""
+    from navbench.benchmark import sim_key_part
+    from navbench.config import to_jsonable
+
+    return {**to_jsonable(cfg), **sim_key_part(sim)}
+
+
+def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg: ImageGoalConfig,
+                      sim: str = "pymunk") -> Ref:
+    """Localise every task's goal image of ``tasks`` in ``vmap`` (see the module docstring),
+    the images rendered by simulator ``sim``; the artifact ``goals.json``."""
 
     def compute(d: Path) -> None:
         from navbench.geometry import CAMERA_HEIGHT, camera_by_name
         from navbench.pipeline.stages.localize import load_localizer, localize_bank_stage
         from navbench.plan.tasks import load_tasks
+        from navbench.sim.backends import sim_intrinsics
 
-        intr = camera_by_name(cfg.camera)
+        intr = sim_intrinsics(sim, camera_by_name(cfg.camera))  # the engine's projection on vizdoom
         task_list = load_tasks(tasks.path)
         update = ctx.progress(f"image goals {level.name}", len(task_list))
         out = {}
@@ -95,7 +111,7 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
             # the bank is cached here; each worker builds its own localiser from it
             bank = localize_bank_stage(ctx, _MapHandle(vmap), CAMERA_HEIGHT, cfg.localizer_config(), level)
             size = max(1, min(8, len(task_list) // (4 * workers)))
-            specs = [(level.path, level.name, vmap.path, bank.path, cfg, task_list[i:i + size])
+            specs = [(level.path, level.name, vmap.path, bank.path, cfg, task_list[i:i + size], sim)
                      for i in range(0, len(task_list), size)]
             with LocalExecutor(workers) as ex:
                 for part in ex.map_unordered(localize_goals, specs):
@@ -105,24 +121,58 @@ def image_goals_stage(ctx: StageContext, level: Ref, vmap: Ref, tasks: Ref, cfg:
             localizer, _ = load_localizer(ctx, _MapHandle(vmap), intr, CAMERA_HEIGHT, cfg.localizer_config(),
                                           level=level)
             lv = load_level_ref(level)
-            for i, t in enumerate(task_list):
-                out.update(_localize_goal(localizer, lv, intr, cfg, t))
-                update(i + 1)
+            with GoalCamera(sim, lv, cfg.camera) as camera:
+                for i, t in enumerate(task_list):
+                    out.update(_localize_goal(localizer, camera, cfg, t))
+                    update(i + 1)
         (d / GOALS_FILE).write_text(json.dumps(out, indent=1, sort_keys=True))
 
     from navbench.config import config_hash
 
     inputs = {"level": level.key, "map": vmap.key, "tasks": tasks.key,
               "localizer": config_hash(cfg.localizer_settings())}  # the resolved localiser, since 2026-11-26
-    path, key, cached = ctx.run("image-goals", cfg, inputs, compute)
+    path, key, cached = ctx.run("image-goals", image_goals_key_config(cfg, sim), inputs, compute)
     return Ref("image-goals", key, path / GOALS_FILE, cached, level.name)
 
 
-def _localize_goal(localizer, level, intr, cfg: ImageGoalConfig, task) -> dict:
-    """``{task id: goal record}`` of one task: its goal image rendered and localised."""
-    from navbench.nav.imagegoal import classify, goal_heading, render_goal
+class GoalCamera:
+    """The goal images of ``level`` from simulator ``sim`` with camera preset ``camera``:
+    ``render(task, seed) -> Frame``. On pymunk :func:`navbench.nav.imagegoal.render_goal` itself
+    (the bytes stored before the choice); on vizdoom the engine's frame at
+    :func:`~navbench.nav.imagegoal.goal_pose` (an engine process: use as a context manager).
+    ``intrinsics``: the projection the images are taken with."""
 
-    frame = render_goal(level, task, intr, cfg.seed)
+    def __init__(self, sim: str, level, camera: str):
+        from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+        from navbench.sim.backends import PoseRenderer, sim_intrinsics
+
+        self.level, self._base = level, camera_by_name(camera)
+        self.intrinsics = sim_intrinsics(sim, self._base)
+        self._engine = None if sim == "pymunk" else PoseRenderer(sim, level, self._base, CAMERA_HEIGHT)
+
+    def render(self, task, seed: int):
+        from navbench.nav.imagegoal import goal_pose, render_goal
+
+        if self._engine is None:
+            return render_goal(self.level, task, self._base, seed)
+        return self._engine.render(goal_pose(task, seed))
+
+    def close(self) -> None:
+        if self._engine is not None:
+            self._engine.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _localize_goal(localizer, camera: GoalCamera, cfg: ImageGoalConfig, task) -> dict:
+    """``{task id: goal record}`` of one task: its goal image rendered and localised."""
+    from navbench.nav.imagegoal import classify, goal_heading
+
+    frame = camera.render(task, cfg.seed)
     loc = classify(localizer.localize(frame, k=2), task.target, cfg.rules())
     return {str(task.id): {"heading": goal_heading(cfg.seed, task.id), "pose": loc.pose,
                            "status": loc.status, "confidence": _num(loc.confidence),
@@ -136,25 +186,28 @@ _WORKER_STATE: dict = {}
 
 def localize_goals(spec) -> dict:
     """Pool worker: the goal records of a chunk ``(level path, level name, map path, bank path,
-    config, tasks)``, with the localiser built once per process from the cached map and bank."""
+    config, tasks, simulator)``, with the localiser built once per process from the cached map
+    and bank (an engine, vizdoom, runs for the chunk only: no process outlives it)."""
     from navbench.config import config_hash
     from navbench.geometry import CAMERA_HEIGHT, camera_by_name
     from navbench.levelio import load_level
     from navbench.pipeline.stages.localize import localizer_from_bank
+    from navbench.sim.backends import sim_intrinsics
     from navbench.worldmodel.base import load_world_model
 
-    level_path, level_name, map_path, bank_path, cfg, chunk = spec
-    key = (str(level_path), str(map_path), str(bank_path), config_hash(cfg))
+    level_path, level_name, map_path, bank_path, cfg, chunk, sim = spec
+    key = (str(level_path), str(map_path), str(bank_path), config_hash(cfg), sim)
     if key not in _WORKER_STATE:
         _WORKER_STATE.clear()
-        intr = camera_by_name(cfg.camera)
+        intr = sim_intrinsics(sim, camera_by_name(cfg.camera))
         localizer = localizer_from_bank(bank_path, load_world_model(map_path), intr, CAMERA_HEIGHT,
                                         cfg.localizer_config())
-        _WORKER_STATE[key] = (localizer, load_level(level_path, name=level_name or None), intr)
-    localizer, level, intr = _WORKER_STATE[key]
+        _WORKER_STATE[key] = (localizer, load_level(level_path, name=level_name or None))
+    localizer, level = _WORKER_STATE[key]
     out = {}
-    for t in chunk:
-        out.update(_localize_goal(localizer, level, intr, cfg, t))
+    with GoalCamera(sim, level, cfg.camera) as camera:
+        for t in chunk:
+            out.update(_localize_goal(localizer, camera, cfg, t))
     return out
 
 

@@ -11,7 +11,12 @@ trajectory. :func:`calibration_views` picks them:
    held-out ones are a subset the calibration cannot tell apart, so it uses them all);
 3. else (``--map true``, or a map file that is no artifact) ``HealthCalibration.views`` views of
    the study's level rendered at seeded free poses (collect-views, seed
-   :data:`CALIBRATION_VIEWS_SEED`, never the trajectories' stream).
+   :data:`CALIBRATION_VIEWS_SEED`, never the trajectories' stream) by the study's simulator
+   (issue 37: on ``vizdoom`` the engine's frames, labelled with the pose it shows; the views'
+   key carries the simulator unless it is pymunk).
+
+Views of the map's own (1, 2) are those its fit saw or held out, of whichever simulator took
+them: a map fitted with ``--sim vizdoom`` has the engine's.
 
 A map file that lies in an artifact directory (``.../fit-map/<key>/map.npz``, e.g. another
 checkout's cache) is found through that directory's manifest, its views in the same store.
@@ -73,8 +78,9 @@ def tracker_options(options: dict) -> dict:
 
 
 def calibration_views(ctx: StageContext, map_spec: str, map_key: str, level: Ref | None,
-                      camera: str = "half", count: int = 200) -> Ref:
-    """The views the map's threshold is calibrated on (see the module doc), as a views Ref."""
+                      camera: str = "half", count: int = 200, sim: str = "pymunk") -> Ref:
+    """The views the map's threshold is calibrated on (see the module doc), as a views Ref;
+    ``sim``: the simulator that renders them when the map has none of its own."""
     man, store = _map_manifest(ctx, map_spec, map_key)
     if man is not None:
         inputs = man.get("inputs", {})
@@ -96,7 +102,7 @@ def calibration_views(ctx: StageContext, map_spec: str, map_key: str, level: Ref
                           f"(not a fit-map artifact) and there is no level to render some")
     from navbench.pipeline.stages.views import ViewsConfig, collect_views_stage
 
-    return collect_views_stage(ctx, level, ViewsConfig(int(count), camera, CALIBRATION_VIEWS_SEED))
+    return collect_views_stage(ctx, level, ViewsConfig(int(count), camera, CALIBRATION_VIEWS_SEED, sim=sim))
 
 
 def _map_manifest(ctx: StageContext, map_spec: str, map_key: str):
@@ -196,7 +202,8 @@ def study_health_thresholds(ctx: StageContext, cfg, level: Ref,
         raise ConfigError("health_min_inliers=auto: the study has no map")
     from navbench.track.health import HealthCalibration
 
-    views = calibration_views(ctx, vmap.spec, vmap.key, level, cfg.camera, HealthCalibration().views)
+    views = calibration_views(ctx, vmap.spec, vmap.key, level, cfg.camera, HealthCalibration().views,
+                              getattr(cfg, "sim", "pymunk"))
     thresholds, keys = {}, {}
     for name, opts in autos.items():
         ref = health_calibration_stage(ctx, views, vmap.key, vmap.load,

@@ -64,14 +64,16 @@ def tasks_config(profile) -> TasksConfig:
     return TasksConfig(profile.tasks, profile.tasks_seed, tuple(getattr(profile, "tasks_difficulty", ())))
 
 
-def with_image_goals(ctx: StageContext, inputs: LevelInputs, cfg) -> LevelInputs:
+def with_image_goals(ctx: StageContext, inputs: LevelInputs, cfg, sim: str = "pymunk") -> LevelInputs:
     """``inputs`` with their image-goals artifact (goals localised in the level's map; ``cfg`` an
-    :class:`~navbench.pipeline.stages.goals.ImageGoalConfig`)."""
+    :class:`~navbench.pipeline.stages.goals.ImageGoalConfig`; the goal images rendered by
+    simulator ``sim``)."""
     import dataclasses
 
     from navbench.pipeline.stages.goals import image_goals_stage
 
-    return dataclasses.replace(inputs, goals=image_goals_stage(ctx, inputs.level, inputs.map, inputs.tasks, cfg))
+    return dataclasses.replace(inputs, goals=image_goals_stage(ctx, inputs.level, inputs.map, inputs.tasks, cfg,
+                                                               sim))
 
 
 def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:

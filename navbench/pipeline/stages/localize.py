@@ -15,6 +15,14 @@ With ``changes`` (``OC1`` .. ``OC4``) the queries are rendered in a changed leve
 (:func:`navbench.levelgen.changed.change_level` of the base with :data:`CHANGE_COUNT` edits) and
 kept only when their image difference (:func:`image_difference`) lies in the band of
 :data:`OC_BANDS`, as RNR-Map sorts its queries into difficulties by their image difference.
+
+The study's ``sim`` (issue 37) picks the camera of the queries
+(:class:`~navbench.sim.backends.PoseRenderer`): ``pymunk``'s exact ray caster, or the ViZDoom
+engine, whose frame is taken from the pose it shows (whole centimetres, 1/65536 turn): that pose
+is the query's true pose, and the localiser reads the frame with the engine's projection. A
+changed level's queries and their image difference are the engine's too. ``sim`` is in the
+study's key only when it is not pymunk (:func:`localize_key_config`): every study stored before
+it keeps its key.
 """
 
 from __future__ import annotations
@@ -22,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -115,15 +124,31 @@ class LocalizeEvalConfig:
     clearance: float = 0.1
     localizer: object = field(default=None)  # a LocalizerConfig (None: its defaults)
     sampling: str = "uniform"  # query poses: "uniform" (free space) or "trajectory" (RNR-Map C.2)
+    # issue 37: the simulator whose frames are the queries (navbench.sim.backends); on "vizdoom"
+    # the pose the engine shows is the query's true pose. Keyed only when not "pymunk".
+    sim: str = "pymunk"
 
     def resolved(self) -> "LocalizeEvalConfig":
         from navbench.localize import LocalizerConfig
+        from navbench.sim.backends import check_sim
 
         if self.changes is not None and self.changes not in OC_BANDS:
             raise ConfigError(f"--changes: expected one of {', '.join(OC_BANDS)}, got {self.changes!r}")
         if self.sampling not in SAMPLINGS:
             raise ConfigError(f"--sampling: expected one of {', '.join(SAMPLINGS)}, got {self.sampling!r}")
+        check_sim(self.sim)
         return self if self.localizer is not None else dataclasses.replace(self, localizer=LocalizerConfig())
+
+
+def localize_key_config(cfg: LocalizeEvalConfig) -> dict:
+    """What the localize-eval key hashes: the resolved study config (``sim`` only when it is not
+    the reference simulator, :func:`navbench.benchmark.sim_key_part`) and :data:`CHANGE_COUNT`."""
+    from navbench.benchmark import sim_key_part
+    from navbench.config import to_jsonable
+
+    study = to_jsonable(cfg)
+    del study["sim"]
+    return {"study": {**study, **sim_key_part(cfg.sim)}, "change_count": CHANGE_COUNT}
 
 
 def image_difference(a, b) -> float:
@@ -161,23 +186,34 @@ def trajectory_poses(level, seed: int):
 
 
 def draw_queries(level, count: int, seed: int, clearance: float, intrinsics, original=None,
-                 band: tuple[float, float] | None = None, sampling: str = "uniform"):
+                 band: tuple[float, float] | None = None, sampling: str = "uniform", sim: str = "pymunk"):
     """Yield ``count`` ``(pose, frame, image difference)``: poses uniform in ``level``'s free
     space (``sampling="uniform"``) or views along its trajectories (``"trajectory"``,
-    :func:`trajectory_poses`), frames of the true camera; with ``original`` and ``band``, only poses whose
+    :func:`trajectory_poses`), frames of the true camera of simulator ``sim`` (on ``vizdoom`` the
+    engine's, and ``pose`` the pose it shows); with ``original`` and ``band``, only poses whose
     :func:`image_difference` to the original level's view lies in ``band`` (at most
     :data:`MAX_DRAWS_PER_QUERY` draws per query, then :class:`ConfigError`)."""
+    from contextlib import ExitStack
+
+    from navbench.geometry import CAMERA_HEIGHT
     from navbench.levelgen.validate import clearance_mask
-    from navbench.sim.camera import RaycastCamera
+    from navbench.sim.backends import PoseRenderer
 
     res = 0.05
     free, xs, ys = clearance_mask(level, res, clearance)
     cells = np.argwhere(free)
     if len(cells) == 0:
         raise ConfigError(f"level {level.name!r}: no free space at {clearance} m clearance")
+    with ExitStack() as stack:  # the engines (vizdoom) stop when the generator ends or is closed
+        cam = stack.enter_context(PoseRenderer(sim, level, intrinsics, CAMERA_HEIGHT))
+        cam0 = stack.enter_context(PoseRenderer(sim, original, intrinsics, CAMERA_HEIGHT)) \
+            if original is not None else None
+        yield from _draw(level, count, seed, sampling, band, cells, xs, ys, res, cam, cam0)
+
+
+def _draw(level, count, seed, sampling, band, cells, xs, ys, res, cam, cam0):
+    """:func:`draw_queries`' loop with its renderers ``cam`` (and ``cam0`` of the original level)."""
     rng = np.random.default_rng([int(seed), 0x10CA1])
-    cam = RaycastCamera(level, intrinsics)
-    cam0 = RaycastCamera(original, intrinsics) if original is not None else None
     kept = 0
     along = trajectory_poses(level, seed) if sampling == "trajectory" else None
     for _ in range(count * (MAX_DRAWS_PER_QUERY if band else 1)):
@@ -188,6 +224,7 @@ def draw_queries(level, count: int, seed: int, clearance: float, intrinsics, ori
             pose = np.array([xs[i] + rng.uniform(-res / 2, res / 2), ys[j] + rng.uniform(-res / 2, res / 2),
                              rng.uniform(-np.pi, np.pi)])
         f = cam.render(pose)
+        pose = cam.shown  # the asked pose (pymunk), or the one the engine shows (vizdoom)
         d = image_difference(f, cam0.render(pose)) if cam0 is not None else 0.0
         if band is not None and not band[0] <= d < band[1]:
             continue
@@ -204,12 +241,12 @@ def study_queries(base, cfg: "LocalizeEvalConfig", intrinsics):
     in its seeded changed copy, kept in that difficulty's image-difference band."""
     if cfg.changes is None:
         return draw_queries(base, cfg.queries, cfg.seed, cfg.clearance, intrinsics,
-                            sampling=cfg.sampling)
+                            sampling=cfg.sampling, sim=cfg.sim)
     from navbench.levelgen.changed import change_level
 
     changed = change_level(base, f"{base.name}-changed", CHANGE_COUNT, cfg.seed)
     return draw_queries(changed, cfg.queries, cfg.seed, cfg.clearance, intrinsics, base,
-                        OC_BANDS[cfg.changes], cfg.sampling)
+                        OC_BANDS[cfg.changes], cfg.sampling, cfg.sim)
 
 
 def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalConfig,
@@ -217,11 +254,14 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
     """Run (or fetch) the study ``cfg`` on ``level`` with map ``vmap``; ``ref.meta``: the bank's
     ``build_s`` and ``bytes``, its key and the map key."""
     from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+    from navbench.sim.backends import sim_intrinsics
 
     cfg = cfg.resolved()
     intr = camera_by_name(cfg.camera)
     model = vmap.load()
-    loc, bank = load_localizer(ctx, vmap, intr, CAMERA_HEIGHT, cfg.localizer, model, level)
+    # the projection the queries are taken with: the engine's on vizdoom (its pixels are not square)
+    loc, bank = load_localizer(ctx, vmap, sim_intrinsics(cfg.sim, intr), CAMERA_HEIGHT, cfg.localizer,
+                               model, level)
 
     def compute(d: Path) -> None:
         q = study_queries(load_level_ref(level), cfg, intr)
@@ -229,18 +269,19 @@ def localize_eval_stage(ctx: StageContext, level: Ref, vmap, cfg: LocalizeEvalCo
         conf, ms, diff = np.zeros(cfg.queries), np.zeros(cfg.queries), np.zeros(cfg.queries)
         cpu = np.zeros(cfg.queries)
         update = ctx.progress(f"localizing {level.name}", cfg.queries)
-        for n, (pose, f, dif) in enumerate(q):
-            h = loc.localize(f)[0]
-            true[n], diff[n] = pose, dif
-            est[n], conf[n], ms[n] = h.pose, h.confidence, loc.last_timing["total"]
-            cpu[n] = loc.last_timing["cpu"]
-            update(n + 1)
+        with closing(q):  # an engine's process (vizdoom) stops here, also on an error
+            for n, (pose, f, dif) in enumerate(q):
+                h = loc.localize(f)[0]
+                true[n], diff[n] = pose, dif
+                est[n], conf[n], ms[n] = h.pose, h.confidence, loc.last_timing["total"]
+                cpu[n] = loc.last_timing["cpu"]
+                update(n + 1)
         np.savez(d / LOCALIZE_FILE, true=true, est=est, confidence=conf, query_ms=ms, query_cpu_ms=cpu,
                  diff=diff, info=np.array(json.dumps({"bank_build_s": bank.meta["build_s"],
                                                              "bank_bytes": bank.meta["bytes"]})))
 
     inputs = {**map_inputs(vmap, level), "level": level.key, "bank": bank.key}
-    path, key, cached = ctx.run("localize-eval", {"study": cfg, "change_count": CHANGE_COUNT}, inputs, compute)
+    path, key, cached = ctx.run("localize-eval", localize_key_config(cfg), inputs, compute)
     return Ref("localize-eval", key, path / LOCALIZE_FILE, cached, level.name,
                {"map_key": vmap.key, "bank_key": bank.key, "bank_cached": bank.cached, **bank.meta})
 
