@@ -25,6 +25,18 @@ def _initial_state(param: str, pred: np.ndarray, camera_height: float):
     return pred.copy() if param == "planar" else camera_pose(pred, camera_height)
 
 
+def search_positions(count: int, cfg: TrackerConfig) -> np.ndarray:
+    """The positions in the tracker's pixel sample (``count`` flat pixel indices, sorted: the
+    Gauss-Newton sample of :func:`navbench.track.ours.gn_pixels`) that the heading search scores:
+    the first ``yaw_search_pixels`` (the default, navbench-1's: sorted flat indices, so the
+    image's top rows, rows 0-16 of 120 and 0-36 of 240 for 400 of 3000 pixels), or with
+    ``yaw_search_spread`` as many positions evenly spaced over the sample (the whole image)."""
+    n = max(0, min(int(cfg.yaw_search_pixels), int(count)))
+    if not cfg.yaw_search_spread or n >= count:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, count - 1, n)).astype(np.int64))
+
+
 def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfig,
                idx: np.ndarray, camera_height: float = CAMERA_HEIGHT,
                obs: Observation | None = None, info: dict | None = None,
@@ -32,8 +44,9 @@ def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
     """The planar start pose for the local optimiser: the best heading around the prediction.
 
     Scores ``pred`` with its heading offset by ``k * yaw_search_step_deg`` (``|offset| <=
-    yaw_search_deg``) by the mean kept data term of eq. 7 per kept photometric pixel on the first
-    ``yaw_search_pixels`` of ``idx``; candidates that keep fewer than 30 % of those pixels are
+    yaw_search_deg``) by the mean kept data term of eq. 7 per kept photometric pixel on
+    ``yaw_search_pixels`` of ``idx`` (the first ones, or spread over ``idx`` with
+    ``yaw_search_spread``: :func:`search_positions`); candidates that keep fewer than 30 % of those pixels are
     skipped. Returns ``pred`` itself when the search is disabled or no candidate qualifies.
     ``obs``: ``sample_observation(frame, ref.observed, idx)`` when the caller has it (its first
     ``yaw_search_pixels`` rows are the same numbers as sampling those pixels again).
@@ -48,12 +61,18 @@ def yaw_search(ref: Reference, frame: Frame, pred: np.ndarray, cfg: TrackerConfi
     pred = np.asarray(pred, dtype=np.float64)
     if cfg.yaw_search_deg <= 0 or cfg.yaw_search_step_deg <= 0:
         return pred.copy()
-    sub = idx[: cfg.yaw_search_pixels]
-    if obs is None:
-        obs = sample_observation(frame, ref.observed, sub)
-    else:
-        n = len(sub)
-        obs = Observation(obs.points[:n], obs.rgb[:n], obs.ok[:n])
+    if cfg.yaw_search_spread:
+        pos = search_positions(len(idx), cfg)
+        sub = idx[pos]
+        obs = sample_observation(frame, ref.observed, sub) if obs is None else \
+            Observation(obs.points[pos], obs.rgb[pos], obs.ok[pos])
+    else:  # navbench-1: the first yaw_search_pixels of idx
+        sub = idx[: cfg.yaw_search_pixels]
+        if obs is None:
+            obs = sample_observation(frame, ref.observed, sub)
+        else:
+            n = len(sub)
+            obs = Observation(obs.points[:n], obs.rgb[:n], obs.ok[:n])
     n_half = int(math.floor(cfg.yaw_search_deg / cfg.yaw_search_step_deg + 1e-9))
     best, best_cost = pred.copy(), np.inf
     Ti = se3_inverse(ref.T_wc)

@@ -61,6 +61,12 @@ class TrackerConfig:
     yaw_search_deg: float = 24.0
     yaw_search_step_deg: float = 2.0
     yaw_search_pixels: int = 400
+    # which of the gn_pixels the search scores (navbench.track.heading.search_positions): False
+    # (navbench-1) the first yaw_search_pixels of the sorted sample, i.e. the image's top rows
+    # (rows 0-16 of 120: mostly ceiling); True that many spread over the whole sample. On the
+    # ViZDoom engine's frames the top rows leave the search choosing headings up to 24 deg off
+    # (docs/notebook/vizdoom.md, 2026-11-27); not a default: it changes navbench-1's results
+    yaw_search_spread: bool = False
     # gate of the heading search: it runs only when the prediction's own score (the search's:
     # mean kept data term per kept photometric pixel, colour units + geo_weight x metres) is
     # above this, i.e. when the residual says the turn was off; below it the optimiser starts

@@ -254,3 +254,34 @@ def test_heading_search_picks_the_offset_with_the_lowest_data_term():
     assert math.degrees(start[2] - z0[2]) == pytest.approx(-10.0, abs=1e-9)
     off = ours.yaw_search(ref, cam.render(true), z0, ours.make_config({"yaw_search_deg": 0.0}), idx)
     np.testing.assert_array_equal(off, z0)
+
+
+def test_heading_search_scores_the_top_rows_unless_spread():
+    """The search scores the first ``yaw_search_pixels`` of the sorted Gauss-Newton sample: the
+    image's top rows (navbench-1); ``yaw_search_spread`` spreads them over the whole image
+    (issue 37: on the engine's frames the top rows, mostly ceiling, misled it)."""
+    from navbench.sim.camera import RaycastCamera
+    from navbench.track.heading import search_positions
+
+    H, W = HALF_CAMERA.shape
+    cfg, spread = ours.make_config({}), ours.make_config({"yaw_search_spread": True})
+    idx = ours.gn_pixels(H, W, cfg.gn_pixels, 0)
+    first, even = idx[search_positions(len(idx), cfg)], idx[search_positions(len(idx), spread)]
+    assert len(first) == len(even) == cfg.yaw_search_pixels
+    assert (first // W).max() <= 16 and (even // W).min() <= 1 and (even // W).max() >= H - 2
+    assert np.all(np.diff(even) > 0)
+    # a frame whose top 20 rows read nothing: the default search has no pixel to score and keeps
+    # the prediction; spread over the image, it finds the 10 deg turn
+    cam = RaycastCamera(small_level(), HALF_CAMERA)
+    z0 = np.array([1.2, 1.0, 0.5])
+    true = z0 + np.array([0.0, 0.0, math.radians(-10.0)])
+    ref = eq7.prepare_reference(cam.render(z0), HALF_CAMERA, camera_pose(z0))
+    f = cam.render(true)
+    valid = f.valid.copy()
+    valid[:20] = False
+    blind = f._replace(valid=valid) if hasattr(f, "_replace") else type(f)(f.rgb, f.depth, valid)
+    np.testing.assert_array_equal(ours.yaw_search(ref, blind, z0, cfg, idx), z0)
+    start = ours.yaw_search(ref, blind, z0, spread, idx)
+    assert math.degrees(start[2] - z0[2]) == pytest.approx(-10.0, abs=1e-9)
+    # the search's choice with all rows readable is the same either way here
+    assert ours.yaw_search(ref, f, z0, spread, idx)[2] == pytest.approx(true[2], abs=1e-9)

@@ -30,6 +30,8 @@ STORED_DEFAULTS = {
     "relocalize_keep": 0, "reference_scale": 1.0,
     # issue 36 (2026-11-27): off by default, navbench-2 turns them on
     "gn_geo_tol": (0.0, 0.0), "yaw_search_gate": 0.0, "yaw_search_turn_deg": 0.0,
+    # issue 37 (2026-11-27): off by default (the search's pixels as navbench-1 scores them)
+    "yaw_search_spread": False,
 }
 
 

@@ -29,7 +29,7 @@ import numpy as np
 from navbench.errors import ConfigError, TaskError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, Intrinsics
 from navbench.level import Level
-from navbench.sim.doom.wad import MAX_UNITS, UNITS_PER_METRE, level_to_map, read_wad, write_wad
+from navbench.sim.doom.wad import LIGHT_LEVEL, MAX_UNITS, UNITS_PER_METRE, level_to_map, read_wad, write_wad
 
 #: The engine's resolutions navbench uses, ``(width, height)`` -> vizdoom's enum name.
 RESOLUTIONS = {(320, 240): "RES_320X240", (160, 120): "RES_160X120"}
@@ -86,21 +86,30 @@ class DoomEngine:
     ``settle_tics``: tics run per teleport before the frame is read (the warp's own tic renders
     with the eye 4 units above the floor; one more tic completes the frame, a third changes
     nothing: measured, see the package docstring); ``sectors_info``: have the engine report the
-    map's sectors and lines (:meth:`sectors`; off by default: it copies them every tic).
+    map's sectors and lines (:meth:`sectors`; off by default: it copies them every tic);
+    ``light_level``: the light level (0..255) of every sector of the converted map
+    (:func:`~navbench.sim.doom.wad.level_to_map`; default :data:`~navbench.sim.doom.wad.LIGHT_LEVEL`
+    = 192). Below 255 Doom fades a surface with its distance (at 192: full brightness within
+    1 m, 0.76 of it at 8 m, measured, ``docs/notebook/vizdoom.md``); at 255 a surface has one
+    colour from every distance and angle. ``game_args``: extra engine arguments (``"+r_visibility 0"``;
+    for measurements: the pipeline never sets them).
     """
 
     def __init__(self, level: Level, resolution=(320, 240), seed: int = 0,
-                 camera_height: float = CAMERA_HEIGHT, settle_tics: int = 2, sectors_info: bool = False):
+                 camera_height: float = CAMERA_HEIGHT, settle_tics: int = 2, sectors_info: bool = False,
+                 light_level: int = LIGHT_LEVEL, game_args: str = ""):
         vzd = _vizdoom()
         resolution = tuple(int(v) for v in resolution)
         if resolution not in RESOLUTIONS:
             raise ConfigError(f"Doom resolution must be one of {sorted(RESOLUTIONS)}, got {resolution}")
         if int(settle_tics) < 1:
             raise ConfigError(f"settle_tics must be >= 1, got {settle_tics}")
+        if isinstance(light_level, bool) or not isinstance(light_level, int) or not 0 <= light_level <= 255:
+            raise ConfigError(f"light_level must be a whole number in 0..255, got {light_level!r}")
         self.level = level
         self.resolution = resolution
         self.settle_tics = int(settle_tics)
-        self.map = level_to_map(level)
+        self.map = level_to_map(level, light_level)
         eye = int(round(camera_height * UNITS_PER_METRE))
         radius = int(round(AGENT_RADIUS * UNITS_PER_METRE))
         lumps = read_wad(self.map.wad) + [("DECORATE", _PLAYER_DECORATE % (eye, radius)),
@@ -129,7 +138,7 @@ class DoomEngine:
         g.set_available_buttons([vzd.Button.TURN_LEFT_RIGHT_DELTA])
         gv = vzd.GameVariable
         g.set_available_game_variables([gv.POSITION_X, gv.POSITION_Y, gv.ANGLE, gv.CAMERA_POSITION_Z])
-        g.add_game_args("+sv_cheats 1 +movebob 0")
+        g.add_game_args("+sv_cheats 1 +movebob 0" + (" " + game_args if game_args else ""))
         g.set_episode_timeout(0)
         # the engine takes a 32-bit seed; navbench's episode seeds are 63-bit (a converted map has
         # nothing random in it: the seed only fixes the engine's own state)

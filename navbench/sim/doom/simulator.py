@@ -35,7 +35,7 @@ from navbench.geometry import CAMERA_HEIGHT, HALF_CAMERA, Frame, Intrinsics
 from navbench.level import Level
 from navbench.sim.doom.engine import (DEPTH_LINEAR, DOOM_INTRINSICS, RESOLUTIONS, DoomEngine,
                                       saturation_value)
-from navbench.sim.doom.wad import UNITS_PER_METRE
+from navbench.sim.doom.wad import LIGHT_LEVEL, UNITS_PER_METRE
 from navbench.sim.world import Simulator
 
 #: Depth sources of :class:`DoomSimulator`.
@@ -80,7 +80,9 @@ class DoomSimulator(Simulator):
     Parameters as :class:`~navbench.sim.world.Simulator`'s, plus ``depth`` (``"buffer"``: the
     engine's depth buffer, or ``"exact"``), ``settle_tics`` (tics per teleport before the
     frame is read; 2: the warp's own tic renders from near the floor, measured) and
-    ``edge_steps`` (:func:`buffer_to_metres`; None keeps discontinuity pixels valid). With
+    ``edge_steps`` (:func:`buffer_to_metres`; None keeps discontinuity pixels valid) and
+    ``light_level`` (the sectors' light, :class:`~navbench.sim.doom.engine.DoomEngine`; the
+    default 192 fades distant surfaces, 255 does not). With
     ``intrinsics=None`` nothing is read from the engine but its pose (it still runs, at
     160 x 120: the pose is its). ``pose_quantisation`` must stay ``"off"``: the engine
     quantises. Call :meth:`close` (or use ``with``) to stop the engine.
@@ -90,7 +92,7 @@ class DoomSimulator(Simulator):
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
                  enforce_direction_limit: bool = False, pose_quantisation: str = "off",
                  collision_check: str = "swept", depth: str = "buffer", settle_tics: int = 2,
-                 edge_steps: int | None = EDGE_STEPS):
+                 edge_steps: int | None = EDGE_STEPS, light_level: int = LIGHT_LEVEL):
         if pose_quantisation != "off":
             raise ConfigError(f"DoomSimulator: pose_quantisation must be 'off' (the engine quantises the pose "
                               f"itself), got {pose_quantisation!r}")
@@ -105,7 +107,8 @@ class DoomSimulator(Simulator):
         self.engine = None
         super().__init__(level, noise, seed, intrinsics=None, camera_height=camera_height,
                          enforce_direction_limit=enforce_direction_limit, collision_check=collision_check)
-        self.engine = DoomEngine(level, res, seed=seed, camera_height=camera_height, settle_tics=settle_tics)
+        self.engine = DoomEngine(level, res, seed=seed, camera_height=camera_height, settle_tics=settle_tics,
+                                 light_level=light_level)
         self.resolution = res
         self.depth_mode = depth
         self.edge_steps = edge_steps
