@@ -332,14 +332,20 @@ def test_deferred_interrupt_is_raised_at_the_checkpoint_not_before():
     from navbench.interrupts import checked, checkpoint, deferred
 
     calls = []
-    with pytest.raises(KeyboardInterrupt):
-        with deferred():
-            os.kill(os.getpid(), signal.SIGINT)  # handled at once, in this (main) thread
-            calls.append("after the signal")  # not interrupted here
-            checked(lambda: calls.append("progress"))()  # raises before calling it
-    assert calls == ["after the signal"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    checkpoint()  # nothing pending any more
+    # a suite started from a background job inherits SIGINT ignored, where deferred() rightly
+    # does nothing: give this test Python's default handler, as an interactive run has
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with deferred():
+                os.kill(os.getpid(), signal.SIGINT)  # handled at once, in this (main) thread
+                calls.append("after the signal")  # not interrupted here
+                checked(lambda: calls.append("progress"))()  # raises before calling it
+        assert calls == ["after the signal"]
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        checkpoint()  # nothing pending any more
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def _dead_owner() -> tuple[int, str | None]:

@@ -176,7 +176,13 @@ def test_db_default_is_the_database_modules():
     assert DB_URL == DEFAULT_DB_URL
 
 
-def test_completion_is_enabled():
+def test_completion_is_enabled(monkeypatch):
+    """``--show-completion`` prints the script for the shell typer detects from the parent
+    processes (its ``bash`` argument is not read); a suite started from a background job has
+    no shell among its parents, so the detection is pinned to bash here."""
+    import typer.completion
+
+    monkeypatch.setattr(typer.completion, "_get_shell_name", lambda: "bash")
     root = _norm(CliRunner().invoke(app, ["--help"], prog_name="navbench", env={"COLUMNS": "400"}).output)
     assert "--install-completion" in root and "--show-completion" in root
     r = CliRunner().invoke(app, ["--show-completion", "bash"], prog_name="navbench")
@@ -195,13 +201,16 @@ def test_completion_completes_commands_and_options():
 
 
 def test_console_entry_point_prints_the_completion_script():
-    """``navbench --show-completion bash`` through :func:`navbench.cli.main.main`, as installed."""
+    """``navbench --show-completion`` through :func:`navbench.cli.main.main`, as installed, run
+    from bash (typer detects the shell among the parent processes; ``; true`` keeps bash from
+    replacing itself with the command, so it stays the parent even in a background job)."""
+    import shlex
     import subprocess
     import sys
 
     code = "import sys; sys.argv[0] = 'navbench'; from navbench.cli.main import main; main()"
-    p = subprocess.run([sys.executable, "-c", code, "--show-completion", "bash"],
-                       capture_output=True, text=True, timeout=60)
+    cmd = f"{shlex.quote(sys.executable)} -c {shlex.quote(code)} --show-completion; true"
+    p = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=60)
     assert p.returncode == 0, p.stderr
     assert "complete -o default -F _navbench_completion navbench" in p.stdout
 
