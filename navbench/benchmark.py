@@ -31,9 +31,10 @@ from __future__ import annotations
 VERSIONS: dict[str, str] = {
     "navbench-1": "the pymunk simulator with per-pixel procedural textures, the paper's fit and "
                   "trackers as first reproduced (every result stored before versions existed)",
-    "navbench-2": "CANDIDATE, not accepted (docs/changelog.md): the camera's textures as texel "
-                  "tables, and ours / no-map stopping Gauss-Newton when it has converged with the "
-                  "heading search run on turns only",
+    "navbench-2": "CANDIDATE, NOT ACCEPTED (its acceptance grid failed, 2026-11-27; "
+                  "docs/changelog.md): the camera's textures as texel tables, and ours / no-map "
+                  "stopping Gauss-Newton when it has converged with the heading search run on "
+                  "turns only",
 }
 #: The version new runs are produced under.
 BENCHMARK_VERSION = "navbench-1"
@@ -44,8 +45,8 @@ LEGACY_VERSION = "navbench-1"
 #: ``"navigation.options.<estimator>.<option>"``) -> its value under the version. Only keys under
 #: :data:`SETTING_STAGES` are allowed (``[conditions]`` names: their ``navigation.episode`` field).
 #: navbench-2's levers were each measured alone (docs/notebook/speed.md, 2026-11-27; the
-#: tracker's tolerances chosen on tune-house only); the version is a candidate until its
-#: acceptance grid (profile ``acceptance``) is run and published.
+#: tracker's tolerances chosen on tune-house only). Its acceptance grid (profile ``acceptance``,
+#: 2026-11-27) did not accept it; it stays selectable so that grid can be reproduced.
 _CONVERGED = {"gn_geo_tol": [5e-4, 5e-4], "gn_tol": [5e-4, 5e-4], "yaw_search_turn_deg": 1.0}
 VERSION_SETTINGS: dict[str, dict[str, object]] = {
     "navbench-1": {},
@@ -55,7 +56,7 @@ VERSION_SETTINGS: dict[str, dict[str, object]] = {
         **{f"navigation.options.{est}.{k}": v for est in ("ours", "no-map") for k, v in _CONVERGED.items()},
     },
 }
-#: Versions that may be chosen but are not yet accepted: their acceptance grid is not published,
+#: Versions that may be chosen but are not accepted (their acceptance grid not run, or failed),
 #: so new runs are not produced under them by default (:data:`BENCHMARK_VERSION`).
 CANDIDATES: frozenset[str] = frozenset({"navbench-2"})
 #: Where a version's setting reaches the cache keys: the dotted prefix of a setting -> the stages

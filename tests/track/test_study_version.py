@@ -97,7 +97,8 @@ def test_navbench_2_reaches_the_frames_the_trackers_the_key_and_the_rows(tmp_pat
         assert kw2["no-map"][opt] == fixed[f"navigation.options.no-map.{opt}"]
     assert not {"gn_tol", "gn_geo_tol"} & set(kw2["dynamics"])
     assert v2["meta"]["study_key"] != v1["meta"]["study_key"] and not v2["meta"]["cached"]
-    assert v2["meta"]["version_line"] == "benchmark navbench-2"
+    assert v2["meta"]["version_line"] == ("benchmark navbench-2 (a candidate version, not accepted: "
+                                          "docs/changelog.md)")
     # the stored rows say their version; the two studies' rows are two sets, never one
     from navbench.results.db import ResultsDB
 
@@ -117,7 +118,8 @@ def test_an_option_over_the_versions_departs_and_is_said(tmp_path, monkeypatch, 
                         "-o", "no-map.yaw_search_turn_deg=0")
     assert kw["no-map"]["yaw_search_turn_deg"] == 0  # --option wins
     assert kw["no-map"]["gn_tol"] == [5e-4, 5e-4]    # the version's other settings stay
-    assert out["meta"]["version_line"] == ("benchmark navbench-2, departing: "
+    assert out["meta"]["version_line"] == ("benchmark navbench-2 (a candidate version, not accepted: "
+                                           "docs/changelog.md), departing: "
                                            "no-map.yaw_search_turn_deg=0 (the version's: 1.0)")
 
 
