@@ -13,7 +13,8 @@ depth buffer (7.1 cm steps) costs, apart from its images.
 
 ``python docs/data/vizdoom/tracking_backends.py [LEVEL] [TRAJECTORIES] [STEPS] [CAMERA ...]``
 (default house-1 30 100 half paper); prints one table per camera and writes each camera's
-figures to ``docs/data/vizdoom/tracking_backends-<CAMERA>.json`` as soon as they are measured.
+figures to ``docs/data/vizdoom/tracking_backends[-<LEVEL>]-<CAMERA>.json`` (no level part for
+house-1) as soon as they are measured.
 """
 
 from __future__ import annotations
@@ -87,7 +88,8 @@ def main(argv: list[str]) -> None:
                          f"{int(np.sum(b > a))}/{len(a)}, <0.1 m {100 * np.mean(b < 0.1):.0f} %, rot {np.median(rb):.3f})")
             print(line)
         out["cameras"][camera] = {"seconds": {s: res[s]["seconds"] for s in res}, "estimators": rows}
-        path = Path(__file__).with_name(f"tracking_backends-{camera}.json")
+        stem = "tracking_backends" + ("" if level_name == "house-1" else f"-{level_name}")
+        path = Path(__file__).with_name(f"{stem}-{camera}.json")
         path.write_text(json.dumps({**out, "cameras": {camera: out["cameras"][camera]}}, indent=1) + "\n")
         print(f"wrote {path.relative_to(ROOT)}", flush=True)
 
