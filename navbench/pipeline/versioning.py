@@ -145,22 +145,22 @@ def departures(profile: Profile) -> dict[str, tuple[Any, Any]]:
     return out
 
 
-def version_head(version: str) -> str:
-    """``benchmark NAME``, and for a version of :data:`navbench.benchmark.CANDIDATES` that it is
-    not accepted: the head of :func:`version_line` and of track-eval's study line."""
-    from navbench.benchmark import CANDIDATES
-
-    note = " (a candidate version, not accepted: docs/changelog.md)" if version in CANDIDATES else ""
-    return f"benchmark {version}{note}"
-
-
 def version_line(profile: Profile) -> str:
     """One line naming the profile's version and its departures (the run log and ``navbench
     all``'s summary): ``benchmark navbench-1``, or for a version of :data:`CANDIDATES`
     ``benchmark navbench-2 (a candidate version, not accepted: docs/changelog.md)``, then any
     departures (``, departing: fit.seed=3 (the version's: 7)``)."""
-    gone = departures(profile)
-    line = version_head(profile.benchmark_version)
+    return departure_line(profile.benchmark_version, departures(profile))
+
+
+def departure_line(version: str, gone: dict[str, tuple[Any, Any]]) -> str:
+    """``benchmark NAME`` (a version of :data:`navbench.benchmark.CANDIDATES` said to be not
+    accepted) and the settings ``gone`` (``{setting: (value, the version's value)}``) that depart
+    from it: :func:`version_line`'s text, for a profile's departures or a study's."""
+    from navbench.benchmark import CANDIDATES
+
+    note = " (a candidate version, not accepted: docs/changelog.md)" if version in CANDIDATES else ""
+    line = f"benchmark {version}{note}"
     if gone:
         line += ", departing: " + "; ".join(f"{k}={v!r} (the version's: {w!r})" for k, (v, w) in gone.items())
     return line

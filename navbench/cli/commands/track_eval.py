@@ -232,14 +232,14 @@ def study_version_line(cfg, version_opts: dict[str, dict], prof=None) -> str:
     option ``--option`` set to another value than the version's, and with ``--map fit`` the
     map profile's departures (:func:`navbench.pipeline.versioning.version_line`)."""
     from navbench.config import canonical_json
-    from navbench.pipeline.versioning import departures, version_head
+    from navbench.pipeline.versioning import departure_line, departures
 
-    gone = [] if prof is None else [f"{k}={v!r} (the version's: {w!r})" for k, (v, w) in departures(prof).items()]
+    gone = {} if prof is None else departures(prof)
     for name, fixed in version_opts.items():
         have = cfg.estimator_options.get(name, {})
-        gone += [f"{name}.{k}={have[k]!r} (the version's: {v!r})" for k, v in fixed.items()
-                 if canonical_json(have.get(k)) != canonical_json(v)]
-    return version_head(cfg.benchmark_version) + (", departing: " + "; ".join(gone) if gone else "")
+        gone.update({f"{name}.{k}": (have[k], v) for k, v in fixed.items()
+                     if canonical_json(have.get(k)) != canonical_json(v)})
+    return departure_line(cfg.benchmark_version, gone)
 
 
 def _finite(obj):

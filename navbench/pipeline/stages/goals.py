@@ -139,15 +139,13 @@ class GoalCamera:
     """The goal images of ``level`` from simulator ``sim`` with camera preset ``camera``:
     ``render(task, seed) -> Frame``. On pymunk :func:`navbench.nav.imagegoal.render_goal` itself
     (the bytes stored before the choice); on vizdoom the engine's frame at
-    :func:`~navbench.nav.imagegoal.goal_pose` (an engine process: use as a context manager).
-    ``intrinsics``: the projection the images are taken with."""
+    :func:`~navbench.nav.imagegoal.goal_pose` (an engine process: use as a context manager)."""
 
     def __init__(self, sim: str, level, camera: str):
         from navbench.geometry import CAMERA_HEIGHT, camera_by_name
-        from navbench.sim.backends import PoseRenderer, sim_intrinsics
+        from navbench.sim.backends import PoseRenderer
 
         self.level, self._base = level, camera_by_name(camera)
-        self.intrinsics = sim_intrinsics(sim, self._base)
         self._engine = None if sim == "pymunk" else PoseRenderer(sim, level, self._base, CAMERA_HEIGHT)
 
     def render(self, task, seed: int):
