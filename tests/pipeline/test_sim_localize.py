@@ -120,16 +120,9 @@ def test_localize_eval_refuses_in_one_line_before_anything_begins(project, monke
     assert not (project / "nb.db").exists() and not (project / "cache").exists()
 
 
-def test_localize_eval_on_the_engines_frames(project, monkeypatch):
-    """The localiser is handed the engine's frames, with the engine's projection, and the study
-    stores the pose the engine showed as each query's truth; the run is navbench-1+vizdoom."""
-    _require_vizdoom()
-    from typer.testing import CliRunner
-
-    from navbench.cli.main import app
+def _spy_localizer(monkeypatch) -> list:
+    """Every ``(frame, intrinsics)`` the localiser is handed from now on, in order."""
     from navbench.localize import Localizer
-    from navbench.pipeline.stages.localize import load_localize_results
-    from navbench.sim.backends import PoseRenderer
 
     seen = []
     original = Localizer.localize
@@ -139,6 +132,20 @@ def test_localize_eval_on_the_engines_frames(project, monkeypatch):
         return original(self, frame, *a, **kw)
 
     monkeypatch.setattr(Localizer, "localize", spy)
+    return seen
+
+
+def test_localize_eval_on_the_engines_frames(project, monkeypatch):
+    """The localiser is handed the engine's frames, with the engine's projection, and the study
+    stores the pose the engine showed as each query's truth; the run is navbench-1+vizdoom."""
+    _require_vizdoom()
+    from typer.testing import CliRunner
+
+    from navbench.cli.main import app
+    from navbench.pipeline.stages.localize import load_localize_results
+    from navbench.sim.backends import PoseRenderer
+
+    seen = _spy_localizer(monkeypatch)
     args = ["localize-eval", "tiny", "--map", "true", "--queries", "3", "--json", "-o", "lattice_step=0.5"]
     res = CliRunner().invoke(app, [*args, "--sim", "vizdoom"])
     assert res.exit_code == 0, res.output + repr(res.exception)
@@ -202,21 +209,13 @@ def test_image_goals_on_the_engine(project, monkeypatch):
     pose, localised with the engine's projection (the pool workers' path gives the same goals);
     the episodes are navbench-1+vizdoom, the goals' key is not pymunk's."""
     _require_vizdoom()
-    from navbench.localize import Localizer
     from navbench.nav.imagegoal import goal_pose
     from navbench.pipeline.run import run_profile
     from navbench.pipeline.stages.goals import load_goals, localize_goals
     from navbench.plan.tasks import load_tasks
     from navbench.sim.backends import PoseRenderer
 
-    seen = []
-    original = Localizer.localize
-
-    def spy(self, frame, *a, **kw):
-        seen.append((frame, self.intrinsics))
-        return original(self, frame, *a, **kw)
-
-    monkeypatch.setattr(Localizer, "localize", spy)
+    seen = _spy_localizer(monkeypatch)
     (project / "img.toml").write_text(IMAGE_GOALS)
     result = run_profile("img.toml", db=f"sqlite:///{project / 'img.db'}", until="navigation", workers=1)
     li = result.inputs[0]
