@@ -205,6 +205,11 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
 
     if departures(profile):  # issue 36: a run of its version, but not the version's own settings
         ctx.log(f"warning: {version_line(profile)}")
+    from navbench.sim.backends import ignored_textures
+
+    ignored = ignored_textures(profile.sim, profile.views_texture, profile.episode.get("texture", "procedural"))
+    if ignored:  # an engine draws its own textures (navbench-2's texel tables change no frame there)
+        ctx.log(f"warning: {ignored}")
     under_version(ctx, profile)  # every stage of the run, the levels checked up front included
     cfg = navigation_config(profile)
     from navbench.pipeline.stages.online import online_config

@@ -41,6 +41,21 @@ def require_sim(name, where: str = "--sim") -> str:
     return name
 
 
+def ignored_textures(sim: str, views_texture: str = "procedural", episode_texture: str = "procedural") -> str | None:
+    """The one-line warning for camera texture modes that ``sim`` ignores (an engine draws its
+    own textures: ``texture = "table"`` under ``--sim vizdoom`` changes no frame), or None."""
+    if sim == REFERENCE_SIM:
+        return None
+    set_ = [f"{where} {t!r}" for where, t in (("views.texture", views_texture),
+                                                ("navigation.episode.texture", episode_texture))
+            if t != "procedural"]
+    if not set_:
+        return None
+    verb = "changes" if len(set_) == 1 else "change"
+    return (f"sim {sim}: {' and '.join(set_)} {verb} no frame (the engine draws its own textures; "
+            "the texture modes are the pymunk camera's)")
+
+
 def make_simulator(sim: str, level, noise="none", seed: int = 0, intrinsics=None, **kwargs):
     """A simulator of kind ``sim`` (keyword arguments as :class:`~navbench.sim.world.Simulator`'s).
     A ``vizdoom`` one runs an engine process: call its ``close()`` (:func:`close_simulator`)."""

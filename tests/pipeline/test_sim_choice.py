@@ -308,3 +308,32 @@ def test_the_paper_profile_on_the_engine_with_its_quantisation_off(project, monk
                  "pose_quantisation=off"], monkeypatch) == 2
     assert "stopped before any stage" in capsys.readouterr().err
     assert seen["profile"].sim == "vizdoom" and seen["profile"].episode["pose_quantisation"] == "off"
+
+
+def test_a_candidate_versions_texel_tables_on_the_engine_warn_once_and_run(project):
+    """navbench-2 sets the pymunk camera's texel tables; the engine draws its own textures, so the
+    run says in one line that they change no frame, and its episodes run (they stopped with
+    "the simulator's texture='procedural' disagrees with EpisodeConfig.texture='table'")."""
+    _require_vizdoom()
+    from navbench.cli.main import app
+
+    res = CliRunner().invoke(app, ["run-navigation", "tiny", "--sim", "vizdoom", "--benchmark-version", "navbench-2",
+                                   "--map", "true", "--tasks", "1", "--estimators", "dynamics,no-map",
+                                   "--noise", "low"])
+    assert res.exit_code == 0, res.output + repr(res.exception)
+    warned = [ln for ln in res.output.splitlines() if "change no frame" in ln]
+    assert warned == ["warning: sim vizdoom: views.texture 'table' and navigation.episode.texture 'table' "
+                      "change no frame (the engine draws its own textures; the texture modes are the "
+                      "pymunk camera's)"]
+    con = sqlite3.connect(project / "nb.db")
+    assert con.execute("select count(*), min(benchmark_version) from episodes").fetchone() == (2, "navbench-2+vizdoom")
+
+
+def test_texture_modes_warn_only_where_the_simulator_ignores_them():
+    from navbench.sim.backends import ignored_textures
+
+    assert ignored_textures("pymunk", "table", "table") is None
+    assert ignored_textures("vizdoom") is None
+    assert ignored_textures("vizdoom", "table") == ("sim vizdoom: views.texture 'table' changes no frame (the "
+                                                    "engine draws its own textures; the texture modes are the "
+                                                    "pymunk camera's)")

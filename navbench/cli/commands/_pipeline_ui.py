@@ -44,6 +44,18 @@ def load_profile_with(profile: str | None, sets: list[str] | None = None, **over
     return prof
 
 
+def warn_ignored_textures(prof) -> None:
+    """Say in one line (stderr) when ``prof``'s texture modes do nothing on its simulator
+    (:func:`navbench.sim.backends.ignored_textures`); ``run_profile`` says it for its commands."""
+    from navbench.sim.backends import ignored_textures
+
+    note = ignored_textures(prof.sim, prof.views_texture, prof.episode.get("texture", "procedural"))
+    if note:
+        from navbench.cli._common import err_console
+
+        err_console.print(f"warning: {note}", style="yellow", markup=False, highlight=False)
+
+
 def command_line() -> str:
     """The command line as typed (for the runs table)."""
     return " ".join(["navbench", *sys.argv[1:]])[:256]

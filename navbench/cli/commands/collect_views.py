@@ -10,11 +10,12 @@ from navbench.cli._help import SET_HELP, SIM_HELP, profile_default, profile_help
 
 def _collect(level: str, count: int | None, camera: str | None, seed: int | None, profile: str | None,
              force: bool, sets: list[str] | None = None, sim: str | None = None) -> None:
-    from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with
+    from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with, warn_ignored_textures
     from navbench.pipeline.run import stage_context
     from navbench.pipeline.stages import LevelConfig, ViewsConfig, collect_views_stage, make_level_stage
 
     prof = load_profile_with(profile, sets, camera=camera, sim=sim)
+    warn_ignored_textures(prof)
     cfg = ViewsConfig(count if count is not None else prof.views, prof.camera,
                       seed if seed is not None else prof.views_seed, texture=prof.views_texture, sim=prof.sim)
     # refuse a collection that cannot fit in memory before the level or anything else is written

@@ -58,7 +58,7 @@ def register(app: typer.Typer) -> None:
         import-views options. Quality: depth MAE (m) and RGB L1 on the held-out views, fit time
         and steps.
         """
-        from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with
+        from navbench.cli.commands._pipeline_ui import PipelineUI, load_profile_with, warn_ignored_textures
         from navbench.errors import ConfigError
         from navbench.pipeline.run import open_db, stage_context
         from navbench.pipeline.stages import LevelConfig, MAP_METRIC_KEYS, fit_map_for_profile, make_level_stage
@@ -69,6 +69,7 @@ def register(app: typer.Typer) -> None:
         opts = _tum.import_options(fx, fy, cx, cy, camera_height, depth_scale, max_dt, max_tilt,
                                    max_height_dev)
         prof = load_profile_with(profile, sets, fit_steps=steps, fit_seed=seed, camera=camera, sim=sim)
+        warn_ignored_textures(prof)
         if device is not None:  # checked as the option the user typed, not as the profile's [fit]
             from navbench.pipeline.checks import _check_fit, _Invalid
 

@@ -88,6 +88,10 @@ class DoomSimulator(Simulator):
     quantises. Call :meth:`close` (or use ``with``) to stop the engine.
     """
 
+    #: the engine draws its own textures: an episode's ``texture`` mode (the pymunk camera's,
+    #: :mod:`navbench.sim.texels`) changes nothing here (:func:`navbench.nav.episode.run_episode`)
+    draws_own_textures = True
+
     def __init__(self, level: Level, noise="none", seed: int = 0,
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
                  enforce_direction_limit: bool = False, pose_quantisation: str = "off",
