@@ -3,10 +3,12 @@ rows with the local executor's, bit for bit (issue 17).
 
     python docs/data/ray/ray_two_nodes.py                       # starts and stops its own two nodes
     python docs/data/ray/ray_two_nodes.py --address HOST:PORT   # a cluster started by hand (ray start)
+    python docs/data/ray/ray_two_nodes.py --sim vizdoom         # the episodes on the engine (issue 37)
 
 The grid is the refactoring guard's (scripts/golden_rows.py: the tiny level on its true
 geometry, ours / no-map / dynamics / gt at low and mid noise, 3 tasks: 24 episodes). It runs
-twice, each time in its own scratch project (so the second run cannot take the first one's
+twice (``--sim vizdoom``: on the ViZDoom engine, an engine process per episode on whichever
+node runs it), each time in its own scratch project (so the second run cannot take the first one's
 trajectories from the cache): with ``--executor local --workers 2`` and with ``--executor ray
 --address ...``. Without ``--address`` the script starts a head node and a worker node (one CPU
 each, two raylets: :class:`ray.cluster_utils.Cluster`, the same processes ``ray start --head``
@@ -61,7 +63,9 @@ def run_grid(proj: Path, *args: str) -> list[tuple]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--address", help="a running Ray cluster (default: start a head and a worker node here)")
+    ap.add_argument("--sim", default="pymunk", choices=("pymunk", "vizdoom"), help="the simulator of the episodes")
     a = ap.parse_args()
+    sim = ("--sim", a.sim)
     os.environ["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
     os.environ.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
     if a.address:  # a wrong address fails now, not after the local run
@@ -76,7 +80,7 @@ def main() -> int:
     tmp = Path(tempfile.mkdtemp(prefix="navbench-ray-"))
     cluster = None
     try:
-        local = run_grid(scratch_project(tmp / "local"), "--executor", "local", "--workers", "2")
+        local = run_grid(scratch_project(tmp / "local"), *sim, "--executor", "local", "--workers", "2")
         address = a.address
         if address is None:
             from ray.cluster_utils import Cluster
@@ -91,9 +95,10 @@ def main() -> int:
         ray.init(address=address, log_to_driver=False)
         nodes = [n["NodeID"][:8] for n in ray.nodes() if n["Alive"]]
         ray.shutdown()
-        remote = run_grid(scratch_project(tmp / "ray"), "--executor", "ray", "--address", address)
+        remote = run_grid(scratch_project(tmp / "ray"), *sim, "--executor", "ray", "--address", address)
         same = local == remote
         print(f"ray cluster at {address}: {len(nodes)} nodes ({', '.join(nodes)})")
+        print(f"simulator: {a.sim}")
         print(f"{len(local)} rows with --executor local --workers 2, {len(remote)} with --executor ray; "
               f"identical: {same}")
         return 0 if same and len(local) == 24 else 1
