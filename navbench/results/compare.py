@@ -122,7 +122,7 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
     from navbench.nav.presets import get_preset
     from navbench.results.db import ResultsDB
     from navbench.results.presets import default_preset, missing_distances
-    from navbench.results.paired import DEFAULT_BOOT, METHODS, method_label, paired_table
+    from navbench.results.paired import DEFAULT_BOOT, METHODS, method_label
 
     if method not in METHODS:
         raise ConfigError(f"--interval: unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -162,36 +162,53 @@ def compare(db: str | None = None, pairs=(), a: str | None = None, b: str | None
         warnings.append(f"{missing} episode(s) were stored without their final distance (before scoring "
                         f"presets); under preset {preset!r} they count as failures")
 
-    fa = _prepared(fa, preset)
     if not two_sides:
-        table = estimator_pairs(fa, pairs, method=method, n_boot=n_boot, seed=seed, where=side_a)
+        table = estimator_pairs(_prepared(fa, preset), pairs, method=method, n_boot=n_boot, seed=seed,
+                                where=side_a)
     else:
-        fb = _prepared(fb, preset)
-        va, vb = _variants(fa), _variants(fb)
-        keys = SIDE_KEYS
-        if not pairs:
-            pairs = [(v, v) for v in va if v in vb]
-            if not pairs:
-                raise ConfigError(f"the sides share no estimator (A: {', '.join(va)}; B: {', '.join(vb)}); "
-                                  "pair two with --pair A:B")
-        for name, f in (("A", fa), ("B", fb)):
-            dup = int(f.duplicated(["variant"] + keys).sum())
-            if dup:
-                warnings.append(f"side {name}: {dup} episode(s) share (level, noise, task, seed, estimator) "
-                                "with another setup of the same side; the last stored kept")
-        fa = fa.sort_values("id").drop_duplicates(["variant"] + keys, keep="last")
-        fb = fb.sort_values("id").drop_duplicates(["variant"] + keys, keep="last")
-        resolved = resolve_pairs(pairs, va, vb, f"side A ({side_a})", f"side B ({side_b})")
-        table = paired_table(fa, fb, resolved, keys, by_conditions=False, method=method, n_boot=n_boot, seed=seed)
-        # the same estimator on both sides: say which side each is
-        table["comparison"] = [f"{y} (B) - {x} (A)" for x, y in zip(table["estimator_a"], table["estimator_b"])]
-        table = _sorted(table, resolved, preset)
+        table = side_pairs(fa, fb, preset, pairs, method=method, n_boot=n_boot, seed=seed, side_a=side_a,
+                           side_b=side_b, warnings=warnings)
     for (pa, pb), rows in table[table["level"] == "all"].groupby(["estimator_a", "estimator_b"], sort=False):
         if int(rows["pairs"].sum()) == 0:
             warnings.append(f"{pb} - {pa}: no episode pairs (no common level, noise, task and seed)")
     n = DEFAULT_BOOT[method] if n_boot is None else int(n_boot)
     return Comparison(table=table, preset=preset, interval=method_label(method, n, seed),
                       side_a=side_a, side_b=side_b, warnings=warnings)
+
+
+def side_pairs(fa: "pandas.DataFrame", fb: "pandas.DataFrame", preset: str, pairs=(), method: str = "bca",
+               n_boot: int | None = None, seed: int = 0, side_a: str = "A", side_b: str = "B",
+               warnings: list | None = None) -> "pandas.DataFrame":
+    """B - A of two selections (:func:`compare` with ``b`` or ``b_db``; frames in, frame out):
+    ``fa``, ``fb`` episodes of one benchmark version each
+    (:func:`navbench.results.score.select_versioned`), scored under ``preset``; episodes pair on
+    :data:`SIDE_KEYS`, estimator by estimator (every estimator both sides hold, or as ``pairs``
+    maps them). ``side_a``, ``side_b``: the sides in words (error messages); ``warnings``: a
+    list the duplicate counts are appended to. Returns :func:`compare`'s table; sides sharing no
+    estimator are a :class:`ConfigError`."""
+    from navbench.results.paired import paired_table
+
+    fa, fb = _prepared(fa, preset), _prepared(fb, preset)
+    va, vb = _variants(fa), _variants(fb)
+    keys = SIDE_KEYS
+    pairs = [parse_pair(p) if isinstance(p, str) else tuple(p) for p in pairs]
+    if not pairs:
+        pairs = [(v, v) for v in va if v in vb]
+        if not pairs:
+            raise ConfigError(f"the sides share no estimator (A: {', '.join(va)}; B: {', '.join(vb)}); "
+                              "pair two with --pair A:B")
+    for name, f in (("A", fa), ("B", fb)):
+        dup = int(f.duplicated(["variant"] + keys).sum())
+        if dup and warnings is not None:
+            warnings.append(f"side {name}: {dup} episode(s) share (level, noise, task, seed, estimator) "
+                            "with another setup of the same side; the last stored kept")
+    fa = fa.sort_values("id").drop_duplicates(["variant"] + keys, keep="last")
+    fb = fb.sort_values("id").drop_duplicates(["variant"] + keys, keep="last")
+    resolved = resolve_pairs(pairs, va, vb, f"side A ({side_a})", f"side B ({side_b})")
+    table = paired_table(fa, fb, resolved, keys, by_conditions=False, method=method, n_boot=n_boot, seed=seed)
+    # the same estimator on both sides: say which side each is
+    table["comparison"] = [f"{y} (B) - {x} (A)" for x, y in zip(table["estimator_a"], table["estimator_b"])]
+    return _sorted(table, resolved, preset)
 
 
 def _prepared(frame: "pandas.DataFrame", preset: str) -> "pandas.DataFrame":
