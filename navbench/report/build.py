@@ -518,7 +518,8 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
                  load_map: MapLoader | None = None, levels_dir: str | Path = "levels", *,
                  n_boot: int = 2000, seed: int = 0, trajectories_per_level: int = 3,
                  run: int | str | None = None, cell_keys: "Collection[str] | None" = None,
-                 preset: str = "paper", pairs=(), benchmark_version: str | None = None) -> Path:
+                 preset: str = "paper", pairs=(), benchmark_version: str | None = None,
+                 b_db: "ResultsDB | None" = None) -> Path:
     """Write ``out_dir/index.html`` and one CSV per table; returns the path of ``index.html``.
 
     Works on any database state (sections without data show a note). ``levels_dir`` holds the
@@ -528,7 +529,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     the scoring ``preset`` (:mod:`navbench.nav.presets`), named beside every score table, and
     one benchmark version: ``benchmark_version``, else the newest of the selection (named at the
     top of the report, with the versions left out). ``pairs``: ``(A, B)`` estimator names whose
-    B - A the report shows (``report --pair``).
+    B - A the report shows (``report --pair``). The version's episodes on another simulator, of this
+    database's selection or of ``b_db`` (``report --b-db``), are set beside it in a section of
+    their own (:mod:`navbench.report.simulators`).
     """
     from navbench import __version__
     from navbench.report.display import plural
@@ -556,6 +559,9 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     _section_spl(page, table)
     section_claim(page, episodes, n_boot, seed)
     section_compare(page, episodes, pairs, n_boot, seed)  # issue 35: report --pair
+    from navbench.report.simulators import section_simulators, simulator_sides  # issue 37 §4
+
+    sims = section_simulators(page, *simulator_sides(db, version, episodes, run, cell_keys, b_db), preset, n_boot, seed)
     section_failures(page, episodes)
     from navbench.report.goals import section_goals  # issue 15
 
@@ -572,6 +578,7 @@ def build_report(db: "ResultsDB", out_dir: str | Path, load_trajectory: Trajecto
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in (
         ("runs", "Runs"), ("spl", "SPL"), ("claim", "Claim"), *((("compare", "Comparisons"),) if pairs else ()),
+        *((("simulators", "Simulators"),) if sims else ()),
         ("failures", "Failures"), ("scores", "Scores"), ("goals", "Goals"), ("tracking", "Tracking"),
         ("runtime", "Runtime"), ("levels", "Levels"), ("maps", "Maps"), ("bench", "Bench"),
         ("localization", "Localisation")))

@@ -26,11 +26,16 @@ def report(
     benchmark_version: str = typer.Option(None, "--benchmark-version", help=VERSION_HELP, show_default=False),
     pair: list[str] = typer.Option(None, "--pair", metavar="A:B", help="Also show B - A of these two "
                                    "estimators on the same episodes, as navbench compare --pair (repeatable)."),
+    b_db: str = typer.Option(None, "--b-db", metavar="URL", help="Another database (e.g. the other simulator's "
+                             "run of the same grid): its episodes of the report's benchmark version on another "
+                             "simulator are set beside the report's in the Simulators section, paired as "
+                             "navbench compare --b-db (never pooled).", show_default=False),
 ):
     """Write a self-contained HTML report (figures embedded) and CSV tables from the database.
 
     Runs, a leaderboard and SPL (Fig. 5a), scores, RMSE CDFs + runtime (Fig. 4), levels (Fig. 3),
-    maps (Fig. 1); with --pair A:B, the paired comparison of A and B.
+    maps (Fig. 1); with --pair A:B, the paired comparison of A and B; with --b-db URL (or one
+    database holding two simulators' episodes), the backends side by side.
     """
     from rich.markup import escape
 
@@ -58,9 +63,11 @@ def report(
     # only into a new, empty or earlier report folder; built beside it, then swapped in whole,
     # so a write that fails (disk full) leaves the earlier report as it was
     protected = protected_paths(db, cache, levels)
+    if b_db is not None:  # never written over either
+        protected += [p for p in protected_paths(b_db, cache, levels) if p not in protected]
     dest = check_report_dir(out, "--out", protected)
     load_trajectory, load_map = store_loaders(cache)
-    with ResultsDB(db, create=False) as rdb:
+    with ResultsDB(db, create=False) as rdb, _other_db(b_db) as bdb:
         from navbench.cli._common import err_console
         from navbench.results.db.resume import resolve_selection
 
@@ -86,12 +93,33 @@ def report(
                 build_report(rdb, build, load_trajectory=load_trajectory, load_map=load_map,
                              levels_dir=levels, n_boot=boot, trajectories_per_level=trajectories,
                              run=selection, preset=preset, pairs=pairs,
-                             benchmark_version=benchmark_version)
+                             benchmark_version=benchmark_version, b_db=bdb)
             publish(build, dest, protected, option="--out")
         finally:
             shutil.rmtree(build, ignore_errors=True)
     index = dest / "index.html"
     console.print(f"report written to {escape(str(index))}")
+
+
+def _other_db(url: str | None):
+    """``--b-db``: the database opened read-only (a context manager; ``None`` passes through), or
+    a one-line error naming the option when it cannot be opened or holds no episodes."""
+    import contextlib
+
+    from navbench.errors import ConfigError, DatabaseError
+    from navbench.results.db import ResultsDB
+
+    if url is None:
+        return contextlib.nullcontext(None)
+    try:
+        bdb = ResultsDB(url, create=False)
+    except DatabaseError as e:  # it suggests --db: the option here is --b-db
+        raise DatabaseError(f"--b-db: {str(e).split('; run `navbench all`')[0]}") from None
+    if bdb.episodes_frame().empty:
+        name = bdb.display_url
+        bdb.close()
+        raise ConfigError(f"--b-db {name}: no navigation episodes to set beside the report's")
+    return bdb
 
 
 def register(app: typer.Typer) -> None:
