@@ -223,17 +223,19 @@ def section_simulators(page: Any, sides: list[Side], notes: list[str], preset: s
 
     if not sides and not notes:
         return False
-    page.h2("Simulators: the same tasks on two backends (issue 37)", "simulators")
+    one_sim = len({_sim(s.version) for s in sides}) == 1  # --b-db on the report's own simulator
+    page.h2("Two databases on one simulator, side by side (report --b-db)" if sides and one_sim else
+            "Simulators: the same tasks on two backends (issue 37)", "simulators")
     for n in notes:
         page.note(n)
     if not sides:
         return True
     ref = sides[0]
-    page.p("Each row: one estimator at one noise level, pooled over the levels both backends ran. "
+    page.p("Each row: one estimator at one noise level, pooled over the levels both sides ran. "
            "Episodes pair on level, noise, task (start and goal) and seed, as navbench compare --b-db; "
-           "success rate and SPL are means over the paired episodes, each backend scored separately "
+           "success rate and SPL are means over the paired episodes, each side scored separately "
            "(two benchmark versions are never pooled), under the scoring preset "
-           f"'{preset}'. Differences are the other backend − {ref.label}, with 95 % BCa bootstrap "
+           f"'{preset}'. Differences are the other side − {ref.label}, with 95 % BCa bootstrap "
            "intervals resampling pairs within each level; the paper's SPL is its Fig. 5a (ViZDoom).")
     for i, other in enumerate(sides[1:]):
         name = "simulators" + (f"_{i + 1}" if i else "")

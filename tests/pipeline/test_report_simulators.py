@@ -180,3 +180,16 @@ def test_cli_bad_b_db_is_one_line_and_writes_nothing(tmp_path, capsys, which, me
     assert e.value.code == 2 and message in err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "rep").exists()
+
+
+def test_b_db_on_the_same_simulator_is_named_by_database(tmp_path):
+    """Two databases of one backend (a rerun of the grid): the sides are named by where they come
+    from, the title says so, and equal episodes differ by exactly 0."""
+    a = _db(tmp_path / "p.db", "pymunk")
+    b = _db(tmp_path / "p2.db", "pymunk")
+    with ResultsDB(a) as db, ResultsDB(b, create=False) as bdb:
+        text = build_report(db, tmp_path / "rep", levels_dir=tmp_path / "levels", n_boot=50, b_db=bdb).read_text()
+    assert 'id="simulators">Two databases on one simulator, side by side (report --b-db)</h2>' in text
+    cells = _cells(_section(text))
+    assert cells[0][6:8] == ["SPL pymunk (this database)", "SPL pymunk (--b-db)"]
+    assert all(r[10] == "+0.000 [+0.000, +0.000]" for r in cells[1:1 + len(ESTIMATORS) * len(NOISES)])
