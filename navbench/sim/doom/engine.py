@@ -2,7 +2,8 @@
 
 :class:`DoomEngine` owns one headless ``vizdoom.DoomGame`` (the engine runs as a child process,
 ``vizdoom``) on a
-level converted by :func:`navbench.sim.doom.wad.level_to_map`. It never lets the engine move
+level converted by :func:`navbench.sim.doom.wad.level_to_map` (once per level content in a
+process: :func:`~navbench.sim.doom.wad.cached_level_map`). It never lets the engine move
 the player by itself: :meth:`DoomEngine.set_pose` teleports (``warp X Y``, a cheat, so the
 game runs with ``+sv_cheats 1``) and turns (``TURN_LEFT_RIGHT_DELTA``) and reads back where
 the engine put the player. The measured behaviour (``docs/notebook/vizdoom.md``; the
@@ -29,7 +30,7 @@ import numpy as np
 from navbench.errors import ConfigError, TaskError
 from navbench.geometry import AGENT_RADIUS, CAMERA_HEIGHT, Intrinsics
 from navbench.level import Level
-from navbench.sim.doom.wad import LIGHT_LEVEL, MAX_UNITS, UNITS_PER_METRE, level_to_map, read_wad, write_wad
+from navbench.sim.doom.wad import LIGHT_LEVEL, MAX_UNITS, UNITS_PER_METRE, cached_level_map, read_wad, write_wad
 
 #: The engine's resolutions navbench uses, ``(width, height)`` -> vizdoom's enum name.
 RESOLUTIONS = {(320, 240): "RES_320X240", (160, 120): "RES_160X120"}
@@ -109,7 +110,7 @@ class DoomEngine:
         self.level = level
         self.resolution = resolution
         self.settle_tics = int(settle_tics)
-        self.map = level_to_map(level, light_level)
+        self.map = cached_level_map(level, light_level)  # converted once per level in a process
         eye = int(round(camera_height * UNITS_PER_METRE))
         radius = int(round(AGENT_RADIUS * UNITS_PER_METRE))
         lumps = read_wad(self.map.wad) + [("DECORATE", _PLAYER_DECORATE % (eye, radius)),
