@@ -155,6 +155,7 @@ def test_a_level_is_converted_once_per_process_with_identical_frames(monkeypatch
     poses = [(1.0, 1.0, 0.3), (3.2, 2.1, -2.0), (5.5, 4.0, 1.7)]
 
     def frames():
+        engine.stop_parked_engine()  # a fresh engine each time (not one a closed engine left running)
         with DoomSimulator(level, "none", seed=3, intrinsics=PAPER_CAMERA) as sim:
             return sim.engine.map, [sim.reset(p) for p in poses]
 
@@ -180,6 +181,83 @@ def test_a_level_is_converted_once_per_process_with_identical_frames(monkeypatch
     assert wad.cached_level_map(moved).textmap == real(moved).textmap != m1.textmap
     assert wad.cached_level_map(level, 255).textmap == real(level, 255).textmap != m1.textmap
     assert wad.cached_level_map(level) is m1
+
+
+@pytest.mark.parametrize("res", [(160, 120), (320, 240)])
+def test_a_closed_engine_is_reused_with_frames_identical_to_a_fresh_one(res):
+    # the pipeline starts an engine per episode (~0.15 s: docs/data/vizdoom/episode_time.py); a
+    # closed one stays running and the next engine on the same WAD starts a new episode in it
+    import navbench.sim.doom.engine as engine
+
+    level = contract._level("house-1")
+    rng = np.random.default_rng(5)
+    pts = sample_free_points(level, rng, 40, 0.2)
+    poses = [(x, y, rng.uniform(-math.pi, math.pi)) for x, y in pts]
+    engine.stop_parked_engine()
+    first = DoomEngine(level, res, seed=3)
+    for p in poses[:20]:  # an earlier episode: the engine moved, turned, ran tics
+        first.set_pose(p)
+    game = first.game
+    first.close()
+    assert engine._PARKED and engine._PARKED[0][1].game is game  # left running
+    reused = DoomEngine(level, res, seed=11)
+    assert reused.game is game and not engine._PARKED
+    fresh = DoomEngine(level, res, seed=11, reuse=False)
+    try:
+        assert fresh.game is not game
+        for eng in (reused, fresh):
+            assert np.array_equal(eng.variables()[:2], first.map.start)  # both at the map's start
+        for p in poses[20:]:
+            np.testing.assert_array_equal(reused.set_pose(p), fresh.set_pose(p))
+            for a, b in zip(reused.buffers(), fresh.buffers()):
+                np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(reused.variables(), fresh.variables())
+    finally:
+        fresh.close()  # reuse=False: stopped, not parked
+        assert not engine._PARKED
+        reused.close()
+    # another level, resolution or light is another engine; the parked one is stopped when
+    # another engine is parked (at most one waits)
+    other = DoomEngine(level, res, seed=3, light_level=255)
+    assert other.game is not game and engine._PARKED[0][1].game is game
+    other_game = other.game
+    other.close()
+    assert len(engine._PARKED) == 1 and engine._PARKED[0][1].game is other_game
+    assert not game.is_running() and other_game.is_running()
+    engine.stop_parked_engine()
+    assert not engine._PARKED
+
+
+def test_simulators_on_a_reused_engine_give_the_rows_of_fresh_ones():
+    # episodes as the worker runs them (a simulator per episode, closed after it): the same
+    # trajectories and frames whether the engine was reused or started afresh
+    import navbench.sim.doom.engine as engine
+
+    level = contract._level("house-1")
+    rng = np.random.default_rng(2)
+    controls = [Control(rng.uniform(-0.2, 0.2), 0.0, rng.uniform(0, 0.16)) for _ in range(15)]
+    starts = [(1.0, 1.0, 0.3), (3.2, 2.1, -2.0), (5.5, 4.0, 1.7)]
+
+    def episodes(reuse):
+        out = []
+        for k, start in enumerate(starts):
+            if not reuse:
+                engine.stop_parked_engine()
+            with DoomSimulator(level, "mid", seed=100 + k, intrinsics=PAPER_CAMERA.scaled(0.5)) as sim:
+                out.append([sim.reset(start)] + [sim.step(u) for u in controls])
+        return out
+
+    engine.stop_parked_engine()
+    fresh, reused = episodes(False), episodes(True)
+    for ea, eb in zip(fresh, reused):
+        for a, b in zip(ea, eb):
+            fa, fb = (a, b) if not hasattr(a, "frame") else (a.frame, b.frame)
+            if hasattr(a, "frame"):
+                np.testing.assert_array_equal(a.pose, b.pose)
+                assert a.collided == b.collided
+            for k in range(3):
+                np.testing.assert_array_equal(fa[k], fb[k])
+    engine.stop_parked_engine()
 
 
 # ------------------------------------------------------------------------- §2 the engine

@@ -20,6 +20,7 @@ disc is 5 cm into a wall, and one inside the wall, where asked).
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import tempfile
@@ -98,7 +99,7 @@ class DoomEngine:
 
     def __init__(self, level: Level, resolution=(320, 240), seed: int = 0,
                  camera_height: float = CAMERA_HEIGHT, settle_tics: int = 2, sectors_info: bool = False,
-                 light_level: int = LIGHT_LEVEL, game_args: str = ""):
+                 light_level: int = LIGHT_LEVEL, game_args: str = "", reuse: bool = True):
         vzd = _vizdoom()
         resolution = tuple(int(v) for v in resolution)
         if resolution not in RESOLUTIONS:
@@ -110,46 +111,33 @@ class DoomEngine:
         self.level = level
         self.resolution = resolution
         self.settle_tics = int(settle_tics)
+        self.sectors_info = bool(sectors_info)
+        self.reuse = bool(reuse)
+        self._vzd = vzd
         self.map = cached_level_map(level, light_level)  # converted once per level in a process
         eye = int(round(camera_height * UNITS_PER_METRE))
         radius = int(round(AGENT_RADIUS * UNITS_PER_METRE))
-        lumps = read_wad(self.map.wad) + [("DECORATE", _PLAYER_DECORATE % (eye, radius)),
-                                           ("KEYCONF", _PLAYER_KEYCONF)]
-        self._dir = tempfile.TemporaryDirectory(prefix="navbench-doom-")
-        path = os.path.join(self._dir.name, "level.wad")
-        with open(path, "wb") as fh:
-            fh.write(write_wad(lumps))
-        g = vzd.DoomGame()
-        g.set_doom_game_path(os.path.join(os.path.dirname(vzd.__file__), "freedoom2.wad"))
-        g.set_doom_scenario_path(path)
-        g.set_doom_map("MAP01")
-        g.set_doom_config_path(os.path.join(self._dir.name, "_vizdoom.ini"))  # not the working directory
-        g.set_screen_resolution(getattr(vzd.ScreenResolution, RESOLUTIONS[resolution]))
-        g.set_screen_format(vzd.ScreenFormat.RGB24)
-        g.set_depth_buffer_enabled(True)
-        g.set_sectors_info_enabled(bool(sectors_info))
-        self.sectors_info = bool(sectors_info)
-        for setter in ("set_render_hud", "set_render_weapon", "set_render_crosshair", "set_render_decals",
-                       "set_render_particles", "set_render_effects_sprites", "set_render_messages",
-                       "set_render_corpses", "set_render_screen_flashes"):
-            getattr(g, setter)(False)
-        g.set_window_visible(False)
-        g.set_sound_enabled(False)
-        g.set_mode(vzd.Mode.PLAYER)
-        g.set_available_buttons([vzd.Button.TURN_LEFT_RIGHT_DELTA])
-        gv = vzd.GameVariable
-        g.set_available_game_variables([gv.POSITION_X, gv.POSITION_Y, gv.ANGLE, gv.CAMERA_POSITION_Z])
-        g.add_game_args("+sv_cheats 1 +movebob 0" + (" " + game_args if game_args else ""))
-        g.set_episode_timeout(0)
+        wad = write_wad(read_wad(self.map.wad) + [("DECORATE", _PLAYER_DECORATE % (eye, radius)),
+                                                  ("KEYCONF", _PLAYER_KEYCONF)])
+        # what a running engine was started with: the WAD's bytes and the engine's settings
+        self._key = (hashlib.sha256(wad).hexdigest(), resolution, self.sectors_info, game_args)
         # the engine takes a 32-bit seed; navbench's episode seeds are 63-bit (a converted map has
         # nothing random in it: the seed only fixes the engine's own state)
-        g.set_seed(int(seed) % (1 << 31))
-        g.init()
-        self.game = g
-        # stop the engine before the temporary directory goes (at interpreter exit, finalizers
-        # run newest first): the engine writes its ini there when it stops
-        self._finalizer = weakref.finalize(self, g.close)
-        self._vzd = vzd
+        seed32 = int(seed) % (1 << 31)
+        self._held = _take_parked(self._key) if self.reuse else None
+        if self._held is not None:  # a closed engine's process on the same WAD: a new episode
+            try:
+                self._held.game.set_seed(seed32)
+                self._held.game.new_episode()  # reloads the map: a fresh engine's first state
+            except Exception:  # pragma: no cover - the parked engine died: start another
+                try:
+                    self._held.stop()
+                except Exception:
+                    pass
+                self._held = None
+        if self._held is None:
+            self._held = _Held(wad, resolution, self.sectors_info, game_args, seed32, vzd)
+        self.game = g = self._held.game
         g.set_action([0.0])
         g.advance_action(WARMUP_TICS, True)  # the engine ignores input in its first tics
         self._state = g.get_state()
@@ -203,13 +191,18 @@ class DoomEngine:
         return self._state.sectors
 
     def close(self) -> None:
-        """Stop the engine and remove the WAD."""
-        if getattr(self, "game", None) is not None:
-            self._finalizer()
-            self.game = None
-        if getattr(self, "_dir", None) is not None:
-            self._dir.cleanup()
-            self._dir = None
+        """Stop the engine and remove the WAD; with ``reuse``, leave the engine's process
+        running for the next :class:`DoomEngine` of this process on the same WAD and settings
+        (it starts a new episode: ``new_episode`` with its seed, 2 ms against ~0.15 s for a
+        start; the frames are the same bit for bit, ``tests/sim/test_doom.py``). At most one
+        engine waits (:func:`stop_parked_engine`); it stops at interpreter exit."""
+        held, self._held, self.game = getattr(self, "_held", None), None, None
+        if held is None:
+            return
+        if self.reuse:
+            _park(self._key, held)
+        else:
+            held.stop()
 
     def __enter__(self):
         return self
@@ -217,8 +210,94 @@ class DoomEngine:
     def __exit__(self, *exc):
         self.close()
 
-    def __del__(self):  # pragma: no cover - best effort
+    def __del__(self):  # pragma: no cover - best effort: an engine nobody closed stops
         try:
-            self.close()
+            held, self._held, self.game = getattr(self, "_held", None), None, None
+            if held is not None:
+                held.stop()
         except Exception:
             pass
+
+
+class _Held:
+    """A running engine process on a WAD of its own (a temporary directory): started here,
+    stopped by :meth:`stop`, at the latest at interpreter exit."""
+
+    def __init__(self, wad: bytes, resolution, sectors_info: bool, game_args: str, seed32: int, vzd):
+        self._dir = tempfile.TemporaryDirectory(prefix="navbench-doom-")
+        path = os.path.join(self._dir.name, "level.wad")
+        with open(path, "wb") as fh:
+            fh.write(wad)
+        g = vzd.DoomGame()
+        g.set_doom_game_path(os.path.join(os.path.dirname(vzd.__file__), "freedoom2.wad"))
+        g.set_doom_scenario_path(path)
+        g.set_doom_map("MAP01")
+        g.set_doom_config_path(os.path.join(self._dir.name, "_vizdoom.ini"))  # not the working directory
+        g.set_screen_resolution(getattr(vzd.ScreenResolution, RESOLUTIONS[resolution]))
+        g.set_screen_format(vzd.ScreenFormat.RGB24)
+        g.set_depth_buffer_enabled(True)
+        g.set_sectors_info_enabled(bool(sectors_info))
+        for setter in ("set_render_hud", "set_render_weapon", "set_render_crosshair", "set_render_decals",
+                       "set_render_particles", "set_render_effects_sprites", "set_render_messages",
+                       "set_render_corpses", "set_render_screen_flashes"):
+            getattr(g, setter)(False)
+        g.set_window_visible(False)
+        g.set_sound_enabled(False)
+        g.set_mode(vzd.Mode.PLAYER)
+        g.set_available_buttons([vzd.Button.TURN_LEFT_RIGHT_DELTA])
+        gv = vzd.GameVariable
+        g.set_available_game_variables([gv.POSITION_X, gv.POSITION_Y, gv.ANGLE, gv.CAMERA_POSITION_Z])
+        g.add_game_args("+sv_cheats 1 +movebob 0" + (" " + game_args if game_args else ""))
+        g.set_episode_timeout(0)
+        g.set_seed(seed32)
+        g.init()
+        self.game = g
+        self.pid = os.getpid()
+        # stop the engine before the temporary directory goes (at interpreter exit, finalizers
+        # run newest first): the engine writes its ini there when it stops
+        self._finalizer = weakref.finalize(self, g.close)
+
+    def stop(self) -> None:
+        self._finalizer()
+        self._dir.cleanup()
+
+
+#: The engine a closed :class:`DoomEngine` left running: ``(key, _Held)``, at most one.
+_PARKED: list = []
+
+
+def _park(key, held: _Held) -> None:
+    stop_parked_engine()
+    if held.pid == os.getpid():
+        _PARKED.append((key, held))
+    else:  # pragma: no cover - an engine inherited through fork belongs to the parent
+        held._finalizer.detach()
+
+
+def _take_parked(key) -> _Held | None:
+    """The parked engine if it was started on ``key`` by this process (else None; a parked
+    engine on another key stays until the next :func:`_park`)."""
+    if _PARKED and _PARKED[0][0] == key and _PARKED[0][1].pid == os.getpid():
+        return _PARKED.pop()[1]
+    return None
+
+
+def stop_parked_engine() -> None:
+    """Stop the engine a closed :class:`DoomEngine` left running for reuse, if any."""
+    while _PARKED:
+        _, held = _PARKED.pop()
+        if held.pid == os.getpid():
+            held.stop()
+        else:  # pragma: no cover - inherited through fork: the parent's process, not ours to stop
+            held._finalizer.detach()
+
+
+def _forget_parked_in_child() -> None:  # pragma: no cover - runs in a forked child
+    """A forked child must neither use nor stop its parent's parked engine."""
+    for _, held in _PARKED:
+        held._finalizer.detach()
+    _PARKED.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_parked_in_child)
