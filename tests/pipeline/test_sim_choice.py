@@ -337,3 +337,54 @@ def test_texture_modes_warn_only_where_the_simulator_ignores_them():
     assert ignored_textures("vizdoom", "table") == ("sim vizdoom: views.texture 'table' changes no frame (the "
                                                     "engine draws its own textures; the texture modes are the "
                                                     "pymunk camera's)")
+
+
+def test_reused_engines_store_the_rows_and_trajectories_of_fresh_ones(project, monkeypatch):
+    # a closed engine is reused by the next one on the same WAD (navbench.sim.doom.engine):
+    # the tiny profile (views, map, episodes: all from the engine) run with and without reuse
+    # stores the same rows and trajectories, bit for bit
+    _require_vizdoom()
+    import navbench.sim.doom.engine as engine
+    from navbench.cli.main import app
+
+    def run(tag):
+        monkeypatch.setenv("NAVBENCH_DB", f"sqlite:///{project / (tag + '.db')}")
+        monkeypatch.setenv("NAVBENCH_CACHE", str(project / ("cache-" + tag)))
+        res = CliRunner().invoke(app, ["all", "--profile", "tiny.toml", "--report", str(project / ("report-" + tag))])
+        assert res.exit_code == 0, res.output + repr(res.exception)
+        con = sqlite3.connect(project / (tag + ".db"))
+        # every column but the row's and run's ids, the timings and the time of recording
+        cols = [r[1] for r in con.execute("pragma table_info(episodes)")
+                if r[1] not in ("id", "run_id", "recorded") and not r[1].endswith("_ms")]
+        rows = con.execute(f"select {', '.join(cols)} from episodes order by cell_key, task_id, seed").fetchall()
+        # the cached arrays (views, map, trajectories; not the timings) by their path under the cache
+        arrays = {(str(f.relative_to(project / ("cache-" + tag))), ""): np.load(f)
+                  for f in (project / ("cache-" + tag)).rglob("*.npy")}
+        for f in sorted((project / ("cache-" + tag)).rglob("*.npz")):
+            with np.load(f) as z:
+                for name in z.files:
+                    where = (str(f.relative_to(project / ("cache-" + tag))), name)
+                    if name == "__meta__":  # a record's JSON fields, its plan time among them
+                        meta = json.loads(bytes(z[name]).decode())
+                        arrays[where] = np.array(sorted((k, repr(v)) for k, v in meta.items()
+                                                        if not k.endswith("_ms")))
+                    elif "timing" not in name and not name.endswith("_ms"):
+                        arrays[where] = z[name]
+        return cols, rows, arrays
+
+    engine.stop_parked_engine()
+    parked = []
+    real_park = engine._park
+    monkeypatch.setattr(engine, "_park", lambda key, held: parked.append(key) or real_park(key, held))
+    reused = run("reused")
+    assert len(parked) > 4  # views, episodes: engines were closed and parked
+    monkeypatch.setattr(engine, "_park", lambda key, held: held.stop())
+    monkeypatch.setattr(engine, "_take_parked", lambda key: None)
+    engine.stop_parked_engine()
+    fresh = run("fresh")
+    assert reused[0] == fresh[0] and len(reused[1]) == 4 and reused[1] == fresh[1]
+    assert reused[2].keys() == fresh[2].keys()
+    assert {k[0].split("/")[0] for k in reused[2]} == {"collect-views", "fit-map", "episode"}
+    assert any(k[0].endswith("rgb.npy") for k in reused[2])  # the engine's views themselves
+    for k, a in reused[2].items():
+        np.testing.assert_array_equal(a, fresh[2][k], err_msg=str(k))
