@@ -340,12 +340,14 @@ def test_texture_modes_warn_only_where_the_simulator_ignores_them():
 
 
 def test_reused_engines_store_the_rows_and_trajectories_of_fresh_ones(project, monkeypatch):
-    # a closed engine is reused by the next one on the same WAD (navbench.sim.doom.engine):
-    # the tiny profile (views, map, episodes: all from the engine) run with and without reuse
-    # stores the same rows and trajectories, bit for bit
+    # a chunk's episodes reuse one engine (navbench.sim.doom.engine.reuse_engines): the tiny
+    # profile with 4 tasks (8 episodes in chunks of 2) run with and without reuse stores the
+    # same rows, views, map and trajectories, bit for bit
     _require_vizdoom()
     import navbench.sim.doom.engine as engine
     from navbench.cli.main import app
+
+    (project / "tiny.toml").write_text(TINY.replace("\ncount = 2\n", "\ncount = 4\n"))
 
     def run(tag):
         monkeypatch.setenv("NAVBENCH_DB", f"sqlite:///{project / (tag + '.db')}")
@@ -372,17 +374,15 @@ def test_reused_engines_store_the_rows_and_trajectories_of_fresh_ones(project, m
                         arrays[where] = z[name]
         return cols, rows, arrays
 
-    engine.stop_parked_engine()
-    parked = []
-    real_park = engine._park
-    monkeypatch.setattr(engine, "_park", lambda key, held: parked.append(key) or real_park(key, held))
+    taken = []
+    real_take = engine._take_parked
+    monkeypatch.setattr(engine, "_take_parked", lambda key: taken.append(real_take(key)) or taken[-1])
     reused = run("reused")
-    assert len(parked) > 4  # views, episodes: engines were closed and parked
-    monkeypatch.setattr(engine, "_park", lambda key, held: held.stop())
-    monkeypatch.setattr(engine, "_take_parked", lambda key: None)
-    engine.stop_parked_engine()
+    assert sum(t is not None for t in taken) == 4  # the second episode of each chunk of 2
+    assert not engine._PARKED
+    monkeypatch.setattr(engine, "_take_parked", lambda key: None)  # as before: a new engine each time
     fresh = run("fresh")
-    assert reused[0] == fresh[0] and len(reused[1]) == 4 and reused[1] == fresh[1]
+    assert reused[0] == fresh[0] and len(reused[1]) == 8 and reused[1] == fresh[1]
     assert reused[2].keys() == fresh[2].keys()
     assert {k[0].split("/")[0] for k in reused[2]} == {"collect-views", "fit-map", "episode"}
     assert any(k[0].endswith("rgb.npy") for k in reused[2])  # the engine's views themselves

@@ -155,7 +155,6 @@ def test_a_level_is_converted_once_per_process_with_identical_frames(monkeypatch
     poses = [(1.0, 1.0, 0.3), (3.2, 2.1, -2.0), (5.5, 4.0, 1.7)]
 
     def frames():
-        engine.stop_parked_engine()  # a fresh engine each time (not one a closed engine left running)
         with DoomSimulator(level, "none", seed=3, intrinsics=PAPER_CAMERA) as sim:
             return sim.engine.map, [sim.reset(p) for p in poses]
 
@@ -185,47 +184,48 @@ def test_a_level_is_converted_once_per_process_with_identical_frames(monkeypatch
 
 @pytest.mark.parametrize("res", [(160, 120), (320, 240)])
 def test_a_closed_engine_is_reused_with_frames_identical_to_a_fresh_one(res):
-    # the pipeline starts an engine per episode (~0.15 s: docs/data/vizdoom/episode_time.py); a
-    # closed one stays running and the next engine on the same WAD starts a new episode in it
+    # the pipeline starts an engine per episode (~0.2-0.4 s: docs/data/vizdoom/episode_time.py);
+    # inside reuse_engines a closed one stays running and the next engine on the same WAD
+    # starts a new episode in it
     import navbench.sim.doom.engine as engine
 
     level = contract._level("house-1")
     rng = np.random.default_rng(5)
     pts = sample_free_points(level, rng, 40, 0.2)
     poses = [(x, y, rng.uniform(-math.pi, math.pi)) for x, y in pts]
-    engine.stop_parked_engine()
-    first = DoomEngine(level, res, seed=3)
-    for p in poses[:20]:  # an earlier episode: the engine moved, turned, ran tics
-        first.set_pose(p)
-    game = first.game
-    first.close()
-    assert engine._PARKED and engine._PARKED[0][1].game is game  # left running
-    reused = DoomEngine(level, res, seed=11)
-    assert reused.game is game and not engine._PARKED
-    fresh = DoomEngine(level, res, seed=11, reuse=False)
+    outside = DoomEngine(level, res, seed=3)
+    game = outside.game
+    outside.close()
+    assert not engine._PARKED and not game.is_running()  # outside the block: stopped
+    fresh = DoomEngine(level, res, seed=11)
     try:
-        assert fresh.game is not game
-        for eng in (reused, fresh):
-            assert np.array_equal(eng.variables()[:2], first.map.start)  # both at the map's start
-        for p in poses[20:]:
-            np.testing.assert_array_equal(reused.set_pose(p), fresh.set_pose(p))
-            for a, b in zip(reused.buffers(), fresh.buffers()):
-                np.testing.assert_array_equal(a, b)
-            np.testing.assert_array_equal(reused.variables(), fresh.variables())
+        with engine.reuse_engines():
+            first = DoomEngine(level, res, seed=3)
+            for p in poses[:20]:  # an earlier episode: the engine moved, turned, ran tics
+                first.set_pose(p)
+            game = first.game
+            first.close()
+            assert engine._PARKED and engine._PARKED[0][1].game is game and game.is_running()
+            reused = DoomEngine(level, res, seed=11)
+            assert reused.game is game and not engine._PARKED
+            for eng in (reused, fresh):
+                assert np.array_equal(eng.variables()[:2], first.map.start)  # both at the map's start
+            for p in poses[20:]:
+                np.testing.assert_array_equal(reused.set_pose(p), fresh.set_pose(p))
+                for a, b in zip(reused.buffers(), fresh.buffers()):
+                    np.testing.assert_array_equal(a, b)
+                np.testing.assert_array_equal(reused.variables(), fresh.variables())
+            reused.close()
+            # another light (another WAD) is another engine; parking it stops the one waiting
+            other = DoomEngine(level, res, seed=3, light_level=255)
+            assert other.game is not game and engine._PARKED[0][1].game is game
+            other_game = other.game
+            other.close()
+            assert len(engine._PARKED) == 1 and engine._PARKED[0][1].game is other_game
+            assert not game.is_running() and other_game.is_running()
+        assert not engine._PARKED and not other_game.is_running()  # the block's end stops it
     finally:
-        fresh.close()  # reuse=False: stopped, not parked
-        assert not engine._PARKED
-        reused.close()
-    # another level, resolution or light is another engine; the parked one is stopped when
-    # another engine is parked (at most one waits)
-    other = DoomEngine(level, res, seed=3, light_level=255)
-    assert other.game is not game and engine._PARKED[0][1].game is game
-    other_game = other.game
-    other.close()
-    assert len(engine._PARKED) == 1 and engine._PARKED[0][1].game is other_game
-    assert not game.is_running() and other_game.is_running()
-    engine.stop_parked_engine()
-    assert not engine._PARKED
+        fresh.close()
 
 
 def test_simulators_on_a_reused_engine_give_the_rows_of_fresh_ones():
@@ -238,17 +238,19 @@ def test_simulators_on_a_reused_engine_give_the_rows_of_fresh_ones():
     controls = [Control(rng.uniform(-0.2, 0.2), 0.0, rng.uniform(0, 0.16)) for _ in range(15)]
     starts = [(1.0, 1.0, 0.3), (3.2, 2.1, -2.0), (5.5, 4.0, 1.7)]
 
-    def episodes(reuse):
+    def episodes():
         out = []
         for k, start in enumerate(starts):
-            if not reuse:
-                engine.stop_parked_engine()
             with DoomSimulator(level, "mid", seed=100 + k, intrinsics=PAPER_CAMERA.scaled(0.5)) as sim:
                 out.append([sim.reset(start)] + [sim.step(u) for u in controls])
+                games.append(sim.engine.game)
         return out
 
-    engine.stop_parked_engine()
-    fresh, reused = episodes(False), episodes(True)
+    games = []
+    fresh = episodes()
+    with engine.reuse_engines():
+        reused = episodes()
+    assert len(set(map(id, games[:3]))) == 3 and games[3] is games[4] is games[5]
     for ea, eb in zip(fresh, reused):
         for a, b in zip(ea, eb):
             fa, fb = (a, b) if not hasattr(a, "frame") else (a.frame, b.frame)
@@ -257,7 +259,6 @@ def test_simulators_on_a_reused_engine_give_the_rows_of_fresh_ones():
                 assert a.collided == b.collided
             for k in range(3):
                 np.testing.assert_array_equal(fa[k], fb[k])
-    engine.stop_parked_engine()
 
 
 # ------------------------------------------------------------------------- §2 the engine

@@ -4,30 +4,34 @@ Two parts, both timed with ``time.perf_counter`` around the real calls (the engi
 ``vizdoom.DoomGame`` is subclassed and the backend's functions wrapped here; nothing in
 navbench is changed to time it):
 
-1. **The engine** per camera: the level -> WAD conversion (``level_to_map``), the engine's
-   start (``DoomSimulator(...)`` to its first frame: WAD conversion or cache hit, ``init`` of
-   the engine process, the 12 warm-up tics, the rest), the first ``reset(pose)``, ``close``;
-   and per ``step``: the warp and turn commands, the settle tics (``advance_action``), the
-   state read (``get_state``: the engine copies its screen and depth buffers into numpy),
-   RGB to float, the depth buffer to metres (``buffer_to_metres``) and the rest (navbench's
-   noisy dynamics, swept collision, bookkeeping). Medians over repeats; the cameras
-   interleaved.
+1. **The engine** per camera, before and now: the level -> WAD conversion (``level_to_map``),
+   the engine's start (``DoomSimulator(...)`` to its first frame: the WAD conversion or a hit
+   of :func:`navbench.sim.doom.wad.cached_level_map`, ``init`` of a new engine process or
+   ``new_episode`` in a reused one, the 12 warm-up tics, the rest), the first
+   ``reset(pose)``, ``close``; and per ``step``: the warp command, the settle tics
+   (``advance_action``), the state read (``get_state``: the engine's screen and depth buffers
+   into numpy), RGB to float, the depth buffer to metres (``buffer_to_metres``) and the rest
+   (navbench's noisy dynamics, swept collision, bookkeeping). Medians over repeats; cameras
+   and before/now interleaved.
 2. **Episodes** as a pipeline worker runs them (:func:`navbench.pipeline.worker.run_episode_chunk`:
    a simulator per episode, an estimator, :func:`navbench.nav.episode.run_episode`, close,
    score) with ``no-map`` and ``dynamics`` at mid noise on a few tasks, planned on the level's
    true occupancy (the pipeline plans on a fitted map's; planning is a small share either
    way). Per episode: engine start (of it the WAD), close, reset (first frame + estimator
    reset), the episode's own step timings (sim, render, estimate, plan, control), the
-   estimator's construction, scoring, and other (the rest of the episode's wall time). Run
-   with the converted-map cache (:func:`navbench.sim.doom.wad.cached_level_map`) on and off,
-   interleaved episode by episode: the ratio of per-episode times, and of engine starts.
+   estimator's construction, scoring, and other (the rest of the episode's wall time); and
+   inside sim, per step, the engine's parts. Before (a conversion and an engine process per
+   episode) and now (inside the worker's chunk block, after the chunk's first episode),
+   interleaved task by task: the ratio of per-episode times, and of engine starts.
 
+Pool workers run compiled kernels on one thread (``NUMBA_NUM_THREADS=1``); so does this script.
 ``nice -n 5 python docs/data/vizdoom/episode_time.py [REPEATS] [TASKS] > docs/data/vizdoom/episode_time.txt``
 (default 9 and 9). The load average (``uptime``) is printed at the start and the end.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import statistics
 import sys
@@ -131,17 +135,16 @@ wad_mod.level_to_map = _CONVERT  # what cached_level_map calls on a miss
 CACHED = wad_mod.cached_level_map
 
 
-_PARK, _TAKE = engine_mod._park, engine_mod._take_parked
-
-
 def set_cache(on: bool) -> None:
-    """The backend as it is (on: the converted-map cache, a closed engine reused) or as it was
-    before both (off: a conversion and an engine process per simulator, stopped on close)."""
+    """The backend as it is (on: the converted-map cache; engines reused inside
+    ``reuse_engines``, as the worker runs a chunk) or as it was before both (off: a conversion
+    and an engine process per simulator, stopped on close)."""
     engine_mod.cached_level_map = CACHED if on else (lambda level, light: _CONVERT(level, light))
-    engine_mod._park = _PARK if on else (lambda key, held: held.stop())
-    engine_mod._take_parked = _TAKE if on else (lambda key: None)
-    if not on:
-        engine_mod.stop_parked_engine()
+
+
+def reuse(on: bool):
+    """The worker's chunk block (on) or nothing (off)."""
+    return engine_mod.reuse_engines() if on else contextlib.nullcontext()
 
 
 _observe = sim_mod.DoomSimulator.observe
@@ -191,6 +194,8 @@ def engine_part(level, repeats: int, steps: int = 100) -> None:
             for on in ((False, True) if r % 2 == 0 else (True, False)):
                 row = rows[(cam, on)]
                 set_cache(on)
+                block = reuse(on)
+                block.__enter__()
                 if on:  # an earlier episode's engine on this camera, closed (not timed)
                     sim_mod.DoomSimulator(level, noise="mid", seed=r, intrinsics=camera_by_name(cam)).close()
                 take()
@@ -225,19 +230,23 @@ def engine_part(level, repeats: int, steps: int = 100) -> None:
                 t = pc()
                 sim.close()
                 row["close"].append(pc() - t)
+                t = pc()
+                block.__exit__(None, None, None)
+                row["end of the chunk's block"].append(pc() - t)
                 take()
     set_cache(True)
     print(f"== 1. the engine on {level.name}: median of {repeats} (cameras and modes interleaved), "
           f"{steps} steps each")
     print(f"level -> WAD conversion (level_to_map): {med(conv) * 1e3:.1f} ms (min {min(conv) * 1e3:.1f})")
-    print("before: a conversion and an engine process per simulator, stopped on close; "
-          "now: the map cached, a closed engine reused (new_episode)")
+    print("before: a conversion and an engine process per simulator, stopped on close; now: the map "
+          "cached, inside the worker's chunk block a closed engine reused (new_episode) and the one "
+          "left running stopped at the block's end")
     for cam in CAMERAS:
         print(f"-- {cam} camera ({camera_by_name(cam).width}x{camera_by_name(cam).height})"
               f"{'':14s} before       now   (ms)")
         b, n = rows[(cam, False)], rows[(cam, True)]
         for k in ("start", *("start: " + p for p in START_PARTS), "start: rest (collision world, WAD file)",
-                  "first reset", "close"):
+                  "first reset", "close", "end of the chunk's block"):
             print(f"  {k:44s} {med(b[k]) * 1e3:8.2f} {med(n[k]) * 1e3:8.2f}")
         print(f"  {'start before / now (median of per-repeat ratios)':44s} "
               f"{med([x / y for x, y in zip(b['start'], n['start'])]):8.1f}x")
@@ -327,14 +336,15 @@ def episode_part(level, n_tasks: int) -> None:
         for e, c in cases:
             for on in ((True, False) if i % 2 == 0 else (False, True)):
                 set_cache(on)
-                if on:  # the chunk's previous episode on this engine (not timed)
-                    episode(level, occ, xs, ys, tasks[(i + 1) % len(tasks)], e, c, 2000 + i, geodesic)
-                got[(e, c, on)].append(episode(level, occ, xs, ys, task, e, c, 1000 + i, geodesic))
+                with reuse(on):
+                    if on:  # the chunk's previous episode on this engine (not timed)
+                        episode(level, occ, xs, ys, tasks[(i + 1) % len(tasks)], e, c, 2000 + i, geodesic)
+                    got[(e, c, on)].append(episode(level, occ, xs, ys, task, e, c, 1000 + i, geodesic))
     set_cache(True)
     print(f"== 2. episodes on {level.name} (mid noise, {n_tasks} tasks, seeds 1000..; the worker's loop: "
           "a simulator per episode)")
     print("seconds per episode, median over tasks; share of the episode's total; as the backend is now "
-          "(the map cached, a closed engine reused)")
+          "(the map cached; not the chunk's first episode: the engine reused)")
     for e, c in cases:
         eps = got[(e, c, True)]
         steps = med([x["steps"] for x in eps])
@@ -350,8 +360,8 @@ def episode_part(level, n_tasks: int) -> None:
         print("  inside sim + reset, per step:",
               ", ".join(f"{k} {med([x['sim: ' + k] / max(1, x['steps']) for x in eps]) * 1e3:.3f} ms"
                         for k in (*SIM_PARTS, "rgb to float, pixel mask", "rest (dynamics, collision)")))
-    print("before / now (before: a conversion and an engine process per episode; episodes interleaved, "
-          "same task and seed; median of per-task ratios):")
+    print("before / now (before: a conversion and an engine process per episode; now: not a chunk's "
+          "first episode; episodes interleaved, same task and seed; median of per-task ratios):")
     for e, c in cases:
         on, off = got[(e, c, True)], got[(e, c, False)]
         r_total = med([b["total"] / a["total"] for a, b in zip(on, off)])

@@ -20,6 +20,7 @@ disc is 5 cm into a wall, and one inside the wall, where asked).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -99,7 +100,7 @@ class DoomEngine:
 
     def __init__(self, level: Level, resolution=(320, 240), seed: int = 0,
                  camera_height: float = CAMERA_HEIGHT, settle_tics: int = 2, sectors_info: bool = False,
-                 light_level: int = LIGHT_LEVEL, game_args: str = "", reuse: bool = True):
+                 light_level: int = LIGHT_LEVEL, game_args: str = ""):
         vzd = _vizdoom()
         resolution = tuple(int(v) for v in resolution)
         if resolution not in RESOLUTIONS:
@@ -112,7 +113,6 @@ class DoomEngine:
         self.resolution = resolution
         self.settle_tics = int(settle_tics)
         self.sectors_info = bool(sectors_info)
-        self.reuse = bool(reuse)
         self._vzd = vzd
         self.map = cached_level_map(level, light_level)  # converted once per level in a process
         eye = int(round(camera_height * UNITS_PER_METRE))
@@ -124,8 +124,8 @@ class DoomEngine:
         # the engine takes a 32-bit seed; navbench's episode seeds are 63-bit (a converted map has
         # nothing random in it: the seed only fixes the engine's own state)
         seed32 = int(seed) % (1 << 31)
-        self._held = _take_parked(self._key) if self.reuse else None
-        if self._held is not None:  # a closed engine's process on the same WAD: a new episode
+        self._held = _take_parked(self._key)  # inside reuse_engines: a closed one on the same WAD
+        if self._held is not None:
             try:
                 self._held.game.set_seed(seed32)
                 self._held.game.new_episode()  # reloads the map: a fresh engine's first state
@@ -191,18 +191,11 @@ class DoomEngine:
         return self._state.sectors
 
     def close(self) -> None:
-        """Stop the engine and remove the WAD; with ``reuse``, leave the engine's process
-        running for the next :class:`DoomEngine` of this process on the same WAD and settings
-        (it starts a new episode: ``new_episode`` with its seed, 2 ms against ~0.15 s for a
-        start; the frames are the same bit for bit, ``tests/sim/test_doom.py``). At most one
-        engine waits (:func:`stop_parked_engine`); it stops at interpreter exit."""
+        """Stop the engine and remove the WAD; inside :func:`reuse_engines`, leave the
+        engine running for the next :class:`DoomEngine` on the same WAD and settings."""
         held, self._held, self.game = getattr(self, "_held", None), None, None
-        if held is None:
-            return
-        if self.reuse:
+        if held is not None:
             _park(self._key, held)
-        else:
-            held.stop()
 
     def __enter__(self):
         return self
@@ -262,16 +255,38 @@ class _Held:
         self._dir.cleanup()
 
 
-#: The engine a closed :class:`DoomEngine` left running: ``(key, _Held)``, at most one.
+#: The engine a closed :class:`DoomEngine` left running inside :func:`reuse_engines`:
+#: ``(key, _Held)``, at most one.
 _PARKED: list = []
+_REUSE_DEPTH = [0]
+
+
+@contextlib.contextmanager
+def reuse_engines():
+    """Within the block, a closed :class:`DoomEngine` leaves its engine running and the next
+    one on the same WAD and settings starts a new episode in it (``new_episode`` with its
+    seed: ~2 ms against ~0.2-0.4 s for a new engine process; the frames are the same bit for
+    bit, ``tests/sim/test_doom.py``). When the block ends, the engine left running stops.
+    Scoped, not process-wide: a pool worker ends with ``os._exit`` (no exit handlers), so an
+    engine parked past its chunk would outlive it. The pipeline's worker runs each chunk of
+    episodes in one block (:func:`navbench.pipeline.worker.run_episode_chunk`)."""
+    _REUSE_DEPTH[0] += 1
+    try:
+        yield
+    finally:
+        _REUSE_DEPTH[0] -= 1
+        if _REUSE_DEPTH[0] == 0:
+            stop_parked_engine()
 
 
 def _park(key, held: _Held) -> None:
+    """Keep ``held`` running for the next engine on ``key`` inside :func:`reuse_engines`
+    (stopping any other parked one); outside, stop it."""
     stop_parked_engine()
-    if held.pid == os.getpid():
+    if _REUSE_DEPTH[0] > 0 and held.pid == os.getpid():
         _PARKED.append((key, held))
-    else:  # pragma: no cover - an engine inherited through fork belongs to the parent
-        held._finalizer.detach()
+    else:
+        held.stop()
 
 
 def _take_parked(key) -> _Held | None:
@@ -285,19 +300,10 @@ def _take_parked(key) -> _Held | None:
 def stop_parked_engine() -> None:
     """Stop the engine a closed :class:`DoomEngine` left running for reuse, if any."""
     while _PARKED:
-        _, held = _PARKED.pop()
-        if held.pid == os.getpid():
-            held.stop()
-        else:  # pragma: no cover - inherited through fork: the parent's process, not ours to stop
-            held._finalizer.detach()
-
-
-def _forget_parked_in_child() -> None:  # pragma: no cover - runs in a forked child
-    """A forked child must neither use nor stop its parent's parked engine."""
-    for _, held in _PARKED:
-        held._finalizer.detach()
-    _PARKED.clear()
+        _PARKED.pop()[1].stop()
 
 
 if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_parked_in_child)
+    # a forked child must neither use nor stop (nor free: its destructor joins a thread the
+    # child does not have) the parent's parked engine: the parent stops it before forking
+    os.register_at_fork(before=stop_parked_engine)
