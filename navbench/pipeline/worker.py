@@ -37,11 +37,8 @@ def _worker_inputs(spec: ChunkSpec):
 
 def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
     """Worker entry point: run a chunk's episodes; returns ``(job, record, score)`` triples."""
-    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
-    from navbench.pipeline.stages.grid import build_episode_config
-    from navbench.nav.metrics import score_episode
-    from navbench.sim.backends import close_simulator, make_simulator, sim_intrinsics
-    from navbench.track.registry import uses_frames
+    from navbench.geometry import camera_by_name
+    from navbench.sim.backends import reusing_engines, sim_intrinsics
 
     level, vmap, occ2d, xs, ys, tasks, geodesic = _worker_inputs(spec)
     intr = sim_intrinsics(spec.sim, camera_by_name(spec.camera))  # vizdoom: the engine's projection
@@ -51,24 +48,36 @@ def run_episode_chunk(spec: ChunkSpec) -> list[tuple[EpisodeJob, Any, Any]]:
 
         goals = load_goals(spec.goals_path)
     out = []
-    for job in spec.jobs:
-        c = job.cell
-        ep_cfg = build_episode_config(c.episode)
-        # estimators that never look at frames skip rendering; the unknown-house loop maps from them
-        frames = uses_frames(c.estimator) or spec.online is not None
-        # the camera's texture mode is the pymunk camera's (navbench.sim.texels); the engine has its own
-        tex = {"texture": ep_cfg.texture} if spec.sim == "pymunk" else {}
-        sim = make_simulator(spec.sim, level, noise=c.noise, seed=job.sim_seed,
-                             intrinsics=camera_by_name(spec.camera) if frames else None,
-                             camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
-                             pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check,
-                             **tex)
-        try:
-            record = _run_one(spec, job, c, ep_cfg, level, vmap, occ2d, xs, ys, tasks, goals, sim, intr)
-        finally:
-            close_simulator(sim)  # the engine's process (vizdoom)
-        out.append((job, record, score_episode(record, geodesic=geodesic)))
+    with reusing_engines(spec.sim):  # the chunk's episodes on one engine process (vizdoom)
+        for job in spec.jobs:
+            out.append(_chunk_episode(spec, job, level, vmap, occ2d, xs, ys, tasks, goals, geodesic, intr))
     return out
+
+
+def _chunk_episode(spec, job, level, vmap, occ2d, xs, ys, tasks, goals, geodesic, intr):
+    """One job of a chunk: its simulator, its episode, the simulator closed; ``(job, record, score)``."""
+    from navbench.geometry import CAMERA_HEIGHT, camera_by_name
+    from navbench.pipeline.stages.grid import build_episode_config
+    from navbench.nav.metrics import score_episode
+    from navbench.sim.backends import close_simulator, make_simulator
+    from navbench.track.registry import uses_frames
+
+    c = job.cell
+    ep_cfg = build_episode_config(c.episode)
+    # estimators that never look at frames skip rendering; the unknown-house loop maps from them
+    frames = uses_frames(c.estimator) or spec.online is not None
+    # the camera's texture mode is the pymunk camera's (navbench.sim.texels); the engine has its own
+    tex = {"texture": ep_cfg.texture} if spec.sim == "pymunk" else {}
+    sim = make_simulator(spec.sim, level, noise=c.noise, seed=job.sim_seed,
+                         intrinsics=camera_by_name(spec.camera) if frames else None,
+                         camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
+                         pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check,
+                         **tex)
+    try:
+        record = _run_one(spec, job, c, ep_cfg, level, vmap, occ2d, xs, ys, tasks, goals, sim, intr)
+    finally:
+        close_simulator(sim)  # the engine's process (vizdoom; kept for the chunk's next episode)
+    return job, record, score_episode(record, geodesic=geodesic)
 
 
 def _run_one(spec, job, c, ep_cfg, level, vmap, occ2d, xs, ys, tasks, goals, sim, intr):

@@ -87,6 +87,20 @@ def sim_intrinsics(sim: str, intrinsics):
     return DOOM_INTRINSICS[size]
 
 
+def reusing_engines(sim: str):
+    """A context in which simulators of kind ``sim`` closed one after another reuse one
+    engine (``vizdoom``: :func:`navbench.sim.doom.engine.reuse_engines`, a new episode in the
+    running engine instead of a new engine process; the same frames); nothing on ``pymunk``."""
+    check_sim(sim)
+    if sim == REFERENCE_SIM:
+        import contextlib
+
+        return contextlib.nullcontext()
+    from navbench.sim.doom.engine import reuse_engines
+
+    return reuse_engines()
+
+
 def close_simulator(sim) -> None:
     """Stop ``sim``'s engine, if it has one (the pymunk simulator has none)."""
     close = getattr(sim, "close", None)

@@ -337,3 +337,54 @@ def test_texture_modes_warn_only_where_the_simulator_ignores_them():
     assert ignored_textures("vizdoom", "table") == ("sim vizdoom: views.texture 'table' changes no frame (the "
                                                     "engine draws its own textures; the texture modes are the "
                                                     "pymunk camera's)")
+
+
+def test_reused_engines_store_the_rows_and_trajectories_of_fresh_ones(project, monkeypatch):
+    # a chunk's episodes reuse one engine (navbench.sim.doom.engine.reuse_engines): the tiny
+    # profile with 4 tasks (8 episodes in chunks of 2) run with and without reuse stores the
+    # same rows, views, map and trajectories, bit for bit
+    _require_vizdoom()
+    import navbench.sim.doom.engine as engine
+    from navbench.cli.main import app
+
+    (project / "tiny.toml").write_text(TINY.replace("\ncount = 2\n", "\ncount = 4\n"))
+
+    def run(tag):
+        monkeypatch.setenv("NAVBENCH_DB", f"sqlite:///{project / (tag + '.db')}")
+        monkeypatch.setenv("NAVBENCH_CACHE", str(project / ("cache-" + tag)))
+        res = CliRunner().invoke(app, ["all", "--profile", "tiny.toml", "--report", str(project / ("report-" + tag))])
+        assert res.exit_code == 0, res.output + repr(res.exception)
+        con = sqlite3.connect(project / (tag + ".db"))
+        # every column but the row's and run's ids, the timings and the time of recording
+        cols = [r[1] for r in con.execute("pragma table_info(episodes)")
+                if r[1] not in ("id", "run_id", "recorded") and not r[1].endswith("_ms")]
+        rows = con.execute(f"select {', '.join(cols)} from episodes order by cell_key, task_id, seed").fetchall()
+        # the cached arrays (views, map, trajectories; not the timings) by their path under the cache
+        arrays = {(str(f.relative_to(project / ("cache-" + tag))), ""): np.load(f)
+                  for f in (project / ("cache-" + tag)).rglob("*.npy")}
+        for f in sorted((project / ("cache-" + tag)).rglob("*.npz")):
+            with np.load(f) as z:
+                for name in z.files:
+                    where = (str(f.relative_to(project / ("cache-" + tag))), name)
+                    if name == "__meta__":  # a record's JSON fields, its plan time among them
+                        meta = json.loads(bytes(z[name]).decode())
+                        arrays[where] = np.array(sorted((k, repr(v)) for k, v in meta.items()
+                                                        if not k.endswith("_ms")))
+                    elif "timing" not in name and not name.endswith("_ms"):
+                        arrays[where] = z[name]
+        return cols, rows, arrays
+
+    taken = []
+    real_take = engine._take_parked
+    monkeypatch.setattr(engine, "_take_parked", lambda key: taken.append(real_take(key)) or taken[-1])
+    reused = run("reused")
+    assert sum(t is not None for t in taken) == 4  # the second episode of each chunk of 2
+    assert not engine._PARKED
+    monkeypatch.setattr(engine, "_take_parked", lambda key: None)  # as before: a new engine each time
+    fresh = run("fresh")
+    assert reused[0] == fresh[0] and len(reused[1]) == 8 and reused[1] == fresh[1]
+    assert reused[2].keys() == fresh[2].keys()
+    assert {k[0].split("/")[0] for k in reused[2]} == {"collect-views", "fit-map", "episode"}
+    assert any(k[0].endswith("rgb.npy") for k in reused[2])  # the engine's views themselves
+    for k, a in reused[2].items():
+        np.testing.assert_array_equal(a, fresh[2][k], err_msg=str(k))

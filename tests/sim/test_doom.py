@@ -46,14 +46,15 @@ def make_sim():
 
 def _height_at(level, pts):
     """Height (m) of the tallest solid covering each point ``(N, 2)`` (0: floor; points outside
-    the box: the level height, as a wall)."""
+    the box: the level height, as a wall). Solids are closed: a point on the seam of two
+    touching pieces (a HouseExpo import's exterior fill) is under both, not on the floor."""
     pr = prisms(level)
     h = np.zeros(len(pts))
     for p in range(len(pr)):
         poly = pr.polygon(p)
         e = np.roll(poly, -1, axis=0) - poly
         rel = pts[:, None, :] - poly[None]
-        inside = np.all(e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0] > 0, axis=1)
+        inside = np.all(e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0] >= 0, axis=1)
         h = np.where(inside, np.maximum(h, pr.height[p]), h)
     outside = (pts[:, 0] <= 0) | (pts[:, 0] >= level.width) | (pts[:, 1] <= 0) | (pts[:, 1] >= level.depth)
     return np.where(outside, level.height, np.minimum(h, level.height))
@@ -70,7 +71,28 @@ def _point_segment_distance(pts, segs):
 
 @pytest.mark.parametrize("name", ["rooms", "house-1"])
 def test_level_round_trip_through_the_engine(name):
-    level = contract._level(name)
+    check_round_trip(contract._level(name))
+
+
+def test_houseexpo_import_round_trip_through_the_engine():
+    # an imported HouseExpo plan (tests/fixtures/houseexpo_small.json, as tests/levels/
+    # test_houseexpo.py imports it): a diagonal outline edge, the outside filled with
+    # full-height pieces that overlap the outline's walls, and six pieces of furniture
+    import json
+    from pathlib import Path
+
+    from navbench.levelgen import level_from_houseexpo
+
+    doc = json.loads((Path(__file__).resolve().parents[1] / "fixtures" / "houseexpo_small.json").read_text())
+    level = level_from_houseexpo(doc, "hx", 4, size=11.4, obstacles=6)
+    assert level.meta["exterior_obstacles"] and any(
+        abs(w.a[0] - w.b[0]) > 1e-6 and abs(w.a[1] - w.b[1]) > 1e-6 for w in level.walls)  # a diagonal wall
+    check_round_trip(level)
+
+
+def check_round_trip(level):
+    """The level's map read back from the engine (sectors with floor and ceiling heights,
+    blocking lines) agrees with the level's segments within one map unit (issue 37 §5)."""
     with DoomEngine(level, (160, 120), sectors_info=True) as eng:
         sectors = eng.sectors()
     s = UNITS_PER_METRE
@@ -115,6 +137,128 @@ def test_wad_holds_a_udmf_map():
     assert [name for name, _ in read_wad(m.wad)] == ["MAP01", "TEXTMAP", "ENDMAP"]
     text = dict(read_wad(m.wad))["TEXTMAP"].decode()
     assert text.startswith('namespace = "zdoom";') and "type = 1;" in text  # the player start
+
+
+def test_a_level_is_converted_once_per_process_with_identical_frames(monkeypatch):
+    # the pipeline starts an engine per episode; the conversion (~0.1 s of a ~0.3 s start on
+    # house-1, docs/data/vizdoom/episode_time.py) runs once per level content and light level
+    import dataclasses
+
+    import navbench.sim.doom.engine as engine
+    import navbench.sim.doom.wad as wad
+
+    level = contract._level("house-1")
+    real = wad.level_to_map
+    calls = []
+    monkeypatch.setattr(wad, "level_to_map", lambda *a: calls.append(a) or real(*a))
+    monkeypatch.setattr(wad, "_MAP_CACHE", type(wad._MAP_CACHE)())
+    poses = [(1.0, 1.0, 0.3), (3.2, 2.1, -2.0), (5.5, 4.0, 1.7)]
+
+    def frames():
+        with DoomSimulator(level, "none", seed=3, intrinsics=PAPER_CAMERA) as sim:
+            return sim.engine.map, [sim.reset(p) for p in poses]
+
+    m1, cold = frames()
+    m2, warm = frames()
+    assert len(calls) == 1 and m2 is m1  # the second engine took the converted map
+    with pytest.raises(ValueError):
+        m1.lines[0, 0] = 0.0  # shared between engines: read-only
+    # the frames of a map converted afresh for the engine (as before the cache), bit for bit
+    monkeypatch.setattr(engine, "cached_level_map", lambda lv, light: real(lv, light))
+    m3, fresh = frames()
+    assert m3 is not m1 and m3.wad == m1.wad
+    for a, b, c in zip(cold, warm, fresh):
+        for k in range(3):
+            np.testing.assert_array_equal(a[k], b[k])
+            np.testing.assert_array_equal(a[k], c[k])
+    # the key is the level's content: meta is not read; a moved obstacle or another light is
+    # another map
+    assert wad.cached_level_map(dataclasses.replace(level, meta={"note": 1})) is m1
+    o = level.obstacles[0]
+    moved = dataclasses.replace(level, obstacles=(dataclasses.replace(
+        o, polygon=tuple((x + 0.05, y) for x, y in o.polygon)),) + level.obstacles[1:])
+    assert wad.cached_level_map(moved).textmap == real(moved).textmap != m1.textmap
+    assert wad.cached_level_map(level, 255).textmap == real(level, 255).textmap != m1.textmap
+    assert wad.cached_level_map(level) is m1
+
+
+@pytest.mark.parametrize("res", [(160, 120), (320, 240)])
+def test_a_closed_engine_is_reused_with_frames_identical_to_a_fresh_one(res):
+    # the pipeline starts an engine per episode (~0.2-0.4 s: docs/data/vizdoom/episode_time.py);
+    # inside reuse_engines a closed one stays running and the next engine on the same WAD
+    # starts a new episode in it
+    import navbench.sim.doom.engine as engine
+
+    level = contract._level("house-1")
+    rng = np.random.default_rng(5)
+    pts = sample_free_points(level, rng, 40, 0.2)
+    poses = [(x, y, rng.uniform(-math.pi, math.pi)) for x, y in pts]
+    outside = DoomEngine(level, res, seed=3)
+    game = outside.game
+    outside.close()
+    assert not engine._PARKED and not game.is_running()  # outside the block: stopped
+    fresh = DoomEngine(level, res, seed=11)
+    try:
+        with engine.reuse_engines():
+            first = DoomEngine(level, res, seed=3)
+            for p in poses[:20]:  # an earlier episode: the engine moved, turned, ran tics
+                first.set_pose(p)
+            game = first.game
+            first.close()
+            assert engine._PARKED and engine._PARKED[0][1].game is game and game.is_running()
+            reused = DoomEngine(level, res, seed=11)
+            assert reused.game is game and not engine._PARKED
+            for eng in (reused, fresh):
+                assert np.array_equal(eng.variables()[:2], first.map.start)  # both at the map's start
+            for p in poses[20:]:
+                np.testing.assert_array_equal(reused.set_pose(p), fresh.set_pose(p))
+                for a, b in zip(reused.buffers(), fresh.buffers()):
+                    np.testing.assert_array_equal(a, b)
+                np.testing.assert_array_equal(reused.variables(), fresh.variables())
+            reused.close()
+            # another light (another WAD) is another engine; parking it stops the one waiting
+            other = DoomEngine(level, res, seed=3, light_level=255)
+            assert other.game is not game and engine._PARKED[0][1].game is game
+            other_game = other.game
+            other.close()
+            assert len(engine._PARKED) == 1 and engine._PARKED[0][1].game is other_game
+            assert not game.is_running() and other_game.is_running()
+        assert not engine._PARKED and not other_game.is_running()  # the block's end stops it
+    finally:
+        fresh.close()
+
+
+def test_simulators_on_a_reused_engine_give_the_rows_of_fresh_ones():
+    # episodes as the worker runs them (a simulator per episode, closed after it): the same
+    # trajectories and frames whether the engine was reused or started afresh
+    import navbench.sim.doom.engine as engine
+
+    level = contract._level("house-1")
+    rng = np.random.default_rng(2)
+    controls = [Control(rng.uniform(-0.2, 0.2), 0.0, rng.uniform(0, 0.16)) for _ in range(15)]
+    starts = [(1.0, 1.0, 0.3), (3.2, 2.1, -2.0), (5.5, 4.0, 1.7)]
+
+    def episodes():
+        out = []
+        for k, start in enumerate(starts):
+            with DoomSimulator(level, "mid", seed=100 + k, intrinsics=PAPER_CAMERA.scaled(0.5)) as sim:
+                out.append([sim.reset(start)] + [sim.step(u) for u in controls])
+                games.append(sim.engine.game)
+        return out
+
+    games = []
+    fresh = episodes()
+    with engine.reuse_engines():
+        reused = episodes()
+    assert len(set(map(id, games[:3]))) == 3 and games[3] is games[4] is games[5]
+    for ea, eb in zip(fresh, reused):
+        for a, b in zip(ea, eb):
+            fa, fb = (a, b) if not hasattr(a, "frame") else (a.frame, b.frame)
+            if hasattr(a, "frame"):
+                np.testing.assert_array_equal(a.pose, b.pose)
+                assert a.collided == b.collided
+            for k in range(3):
+                np.testing.assert_array_equal(fa[k], fb[k])
 
 
 # ------------------------------------------------------------------------- §2 the engine

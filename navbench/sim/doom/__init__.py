@@ -68,4 +68,11 @@ Frames per second (house-1, ``reset(pose)`` with its frame converted, median of 
     same run: 185 and 396). The machine's load moves these by 2x or more: earlier runs under
     loads of 8 to 14, with the engine also copying its sectors every tic (now off unless
     asked), gave 445 / 1918, 277 / 653 and 214 / 581. The engine is a process of its own.
+Engine start (house-1, ``docs/data/vizdoom/episode_time.py``, load 4.7-5.5)
+    a level's conversion and a new engine process took ~0.25 s (conversion 0.11-0.13 s, the
+    process's ``init`` 0.12-0.14 s), 0.24-0.27 s of every episode the pipeline ran (an engine
+    per episode). The conversion now runs once per level content in a process
+    (:func:`~navbench.sim.doom.wad.cached_level_map`) and, inside
+    :func:`~navbench.sim.doom.engine.reuse_engines` (the worker's chunk of episodes), a closed
+    engine is reused with ``new_episode``: 4-5 ms, the same frames bit for bit.
 """
