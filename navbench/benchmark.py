@@ -35,6 +35,9 @@ VERSIONS: dict[str, str] = {
                   "docs/changelog.md): the camera's textures as texel tables, and ours / no-map "
                   "stopping Gauss-Newton when it has converged with the heading search run on "
                   "turns only",
+    "navbench-3": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md), not yet the "
+                  "default: navbench-1 with ours' and no-map's heading search scored on pixels spread "
+                  "over the image (yaw_search_spread) instead of the image's top rows",
 }
 #: The version new runs are produced under.
 BENCHMARK_VERSION = "navbench-1"
@@ -55,6 +58,10 @@ VERSION_SETTINGS: dict[str, dict[str, object]] = {
         "navigation.episode.texture": "table",
         **{f"navigation.options.{est}.{k}": v for est in ("ours", "no-map") for k, v in _CONVERGED.items()},
     },
+    # the heading search's fix alone (docs/notebook/vizdoom.md: navbench-1's search scores the
+    # first 400 of the tracker's row-sorted pixels, the image's top rows); nothing tuned: the
+    # same 400 pixels, spread over the image
+    "navbench-3": {f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")},
 }
 #: Versions that may be chosen but are not accepted (their acceptance grid not run, or failed),
 #: so new runs are not produced under them by default (:data:`BENCHMARK_VERSION`).
@@ -70,7 +77,9 @@ SETTING_STAGES: dict[str, tuple[str, ...]] = {
     "navigation.goal_localizer.": ("image-goals",), "navigation.": (), "scoring.": (),
 }
 #: The Gymnasium environment id of each version (the id's suffix follows the images).
-GYM_IDS: dict[str, str] = {"navbench-1": "navbench/PointNav-v0", "navbench-2": "navbench/PointNav-v1"}
+#: navbench-3 changes no image (only the built-in trackers), so its environment is navbench-1's.
+GYM_IDS: dict[str, str] = {"navbench-1": "navbench/PointNav-v0", "navbench-2": "navbench/PointNav-v1",
+                           "navbench-3": "navbench/PointNav-v0"}
 
 
 class UnknownVersion(ValueError):

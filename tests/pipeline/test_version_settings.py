@@ -94,7 +94,7 @@ def test_an_unknown_version_is_one_line_naming_the_known_ones(tmp_path, testing_
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "bad"\nbenchmark_version = "navbench-0"\n')
     with pytest.raises(ConfigError, match=r"bad.toml: benchmark_version: unknown value 'navbench-0'.*"
-                                          r"choose one of \['navbench-1', 'navbench-2', 'navbench-test'\]"):
+                                          r"choose one of \['navbench-1', 'navbench-2', 'navbench-3', 'navbench-test'\]"):
         load_profile(str(bad))
     with pytest.raises(ConfigError, match="--set: benchmark_version: unknown value 'navbench-0'"):
         apply_sets(load_profile("quick"), ["benchmark_version=navbench-0"])
@@ -227,3 +227,32 @@ def test_runs_of_two_versions_store_their_own_rows_and_are_never_pooled(project,
              "--benchmark-version", testing_version, "--set", "fit.seed=3")
     assert res.code == 0, res.output
     assert "benchmark navbench-test, departing: fit.seed=3 (the version's: 7)" in res.out
+
+
+def test_navbench_3_is_navbench_1_with_the_spread_heading_search(project):
+    """navbench-3 (accepted 2026-11-27) fixes exactly ``yaw_search_spread`` of ours and no-map:
+    tiny.toml run under it stores, episode for episode, what navbench-1 with the two --set
+    options stores (only the version and the keys that carry it differ), reuses navbench-1's
+    level, views and map, and leaves dynamics' rows as navbench-1's."""
+    import sqlite3
+
+    from navbench.pipeline.run import run_profile
+
+    assert benchmark.version_settings("navbench-3") == {
+        "navigation.options.ours.yaw_search_spread": True, "navigation.options.no-map.yaw_search_spread": True}
+    assert "navbench-3" not in benchmark.CANDIDATES and benchmark.BENCHMARK_VERSION == "navbench-1"
+    base = apply_sets(load_profile("tiny.toml"), ["navigation.estimators=ours,no-map,dynamics"])
+    spread = ["navigation.options.ours.yaw_search_spread=true", "navigation.options.no-map.yaw_search_spread=true"]
+    v1 = run_profile(apply_sets(base, spread), db=f"sqlite:///{project / 'one.db'}", until="score")
+    v3 = run_profile(apply_sets(base, ["benchmark_version=navbench-3"]), db=f"sqlite:///{project / 'three.db'}",
+                     until="score")
+    assert v3.inputs[0].map.key == v1.inputs[0].map.key and v3.navigation.already_done == 0
+    cols = ("level, task_id, estimator, noise, seed, success, spl_term, path_length, steps, end_reason, "
+            "loc_rmse_m, rot_rmse_deg, map_key")
+    rows = {}
+    for name in ("one", "three"):
+        with sqlite3.connect(project / f"{name}.db") as con:
+            rows[name] = con.execute(f"SELECT {cols} FROM episodes ORDER BY estimator, noise, task_id, seed").fetchall()
+            versions = {v for (v,) in con.execute("SELECT DISTINCT benchmark_version FROM episodes")}
+        assert versions == {"navbench-1" if name == "one" else "navbench-3"}
+    assert rows["one"] == rows["three"] and len(rows["one"]) == v1.navigation.stored > 0
