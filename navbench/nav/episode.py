@@ -123,8 +123,6 @@ def run_episode(level, occ2d, xs, ys, task, estimator, simulator, config: Episod
         raise ConfigError(f"the simulator's enforce_direction_limit={bool(drive)} disagrees with "
                           f"EpisodeConfig.body_fixed_drive={config.body_fixed_drive}")
     for name, neutral in KEY_NEUTRAL_FIELDS.items():
-        if name == "texture" and getattr(simulator, "draws_own_textures", False):
-            continue  # an engine's frames (vizdoom): the texture modes are the pymunk camera's
         if getattr(simulator, name, neutral) != getattr(config, name):
             raise ConfigError(f"the simulator's {name}={getattr(simulator, name, None)!r} disagrees with "
                               f"EpisodeConfig.{name}={getattr(config, name)!r}")

@@ -219,6 +219,14 @@ def validate(p: Profile, where: str | None = None) -> None:
                               "camera's); use map = \"fit\" or \"true\"")
 
 
+def ignored_textures_note(p: Profile) -> str | None:
+    """The one-line warning when ``p``'s texture modes (views and episodes) do nothing on its
+    simulator (:func:`navbench.sim.backends.ignored_textures`), or None."""
+    from navbench.sim.backends import ignored_textures
+
+    return ignored_textures(p.sim, p.views_texture, p.episode.get("texture", "procedural"))
+
+
 def grid_size(p: Profile) -> int:
     """Episodes in the profile's grid: levels x estimators x noise x tasks x seeds."""
     return len(dict.fromkeys(p.levels)) * len(p.estimators) * len(p.noise) * p.tasks * max(1, len(p.tasks_difficulty)) * p.seeds

@@ -205,9 +205,9 @@ def navigate(ctx: "StageContext", profile: "Profile", run_id: int, executor: str
 
     if departures(profile):  # issue 36: a run of its version, but not the version's own settings
         ctx.log(f"warning: {version_line(profile)}")
-    from navbench.sim.backends import ignored_textures
+    from navbench.pipeline.profiles import ignored_textures_note
 
-    ignored = ignored_textures(profile.sim, profile.views_texture, profile.episode.get("texture", "procedural"))
+    ignored = ignored_textures_note(profile)
     if ignored:  # an engine draws its own textures (navbench-2's texel tables change no frame there)
         ctx.log(f"warning: {ignored}")
     under_version(ctx, profile)  # every stage of the run, the levels checked up front included

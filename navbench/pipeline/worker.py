@@ -66,13 +66,12 @@ def _chunk_episode(spec, job, level, vmap, occ2d, xs, ys, tasks, goals, geodesic
     ep_cfg = build_episode_config(c.episode)
     # estimators that never look at frames skip rendering; the unknown-house loop maps from them
     frames = uses_frames(c.estimator) or spec.online is not None
-    # the camera's texture mode is the pymunk camera's (navbench.sim.texels); the engine has its own
-    tex = {"texture": ep_cfg.texture} if spec.sim == "pymunk" else {}
+    # the texture mode is the pymunk camera's (navbench.sim.texels); the engine records it, unused
     sim = make_simulator(spec.sim, level, noise=c.noise, seed=job.sim_seed,
                          intrinsics=camera_by_name(spec.camera) if frames else None,
                          camera_height=CAMERA_HEIGHT, enforce_direction_limit=ep_cfg.body_fixed_drive,
                          pose_quantisation=ep_cfg.pose_quantisation, collision_check=ep_cfg.collision_check,
-                         **tex)
+                         texture=ep_cfg.texture)
     try:
         record = _run_one(spec, job, c, ep_cfg, level, vmap, occ2d, xs, ys, tasks, goals, sim, intr)
     finally:

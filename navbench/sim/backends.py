@@ -43,7 +43,8 @@ def require_sim(name, where: str = "--sim") -> str:
 
 def ignored_textures(sim: str, views_texture: str = "procedural", episode_texture: str = "procedural") -> str | None:
     """The one-line warning for camera texture modes that ``sim`` ignores (an engine draws its
-    own textures: ``texture = "table"`` under ``--sim vizdoom`` changes no frame), or None."""
+    own textures: ``texture = "table"`` under ``--sim vizdoom`` changes no frame), or None.
+    A profile's: :func:`navbench.pipeline.profiles.ignored_textures_note`."""
     if sim == REFERENCE_SIM:
         return None
     set_ = [f"{where} {t!r}" for where, t in (("views.texture", views_texture),

@@ -24,6 +24,7 @@ from navbench.pipeline.artifacts import FORMAT
 from navbench.pipeline.cache import stage_key
 from navbench.pipeline.stages.context import Ref, StageContext
 
+from .test_sim_choice import _cli, project  # noqa: F401  (the scratch project with the tiny level)
 from .test_stages import tiny_level
 
 #: Keys computed by the code before the simulator could be chosen for these stages (ba9b0c8):
@@ -83,29 +84,6 @@ def test_vizdoom_changes_each_of_these_keys(tmp_path):
     doom = _keys(tmp_path, "vizdoom")
     assert all(doom[k] != KEYS_BEFORE[k] for k in KEYS_BEFORE)
     assert len(set(doom.values())) == len(doom)
-
-
-def _cli(args, monkeypatch, missing_vizdoom=False):
-    from navbench.cli.main import main
-
-    if missing_vizdoom:
-        monkeypatch.setitem(sys.modules, "vizdoom", None)
-    monkeypatch.setattr(sys, "argv", ["navbench", *args])
-    with pytest.raises(SystemExit) as e:
-        main()
-    return e.value.code
-
-
-@pytest.fixture
-def project(tmp_path, monkeypatch):
-    from navbench.levelio import save_level
-
-    (tmp_path / "levels").mkdir()
-    save_level(tiny_level(), tmp_path / "levels" / "tiny.json")
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("NAVBENCH_DB", f"sqlite:///{tmp_path / 'nb.db'}")
-    monkeypatch.setenv("NAVBENCH_CACHE", str(tmp_path / "cache"))
-    return tmp_path
 
 
 @pytest.mark.parametrize("sim,missing,says", [

@@ -46,10 +46,11 @@ def load_profile_with(profile: str | None, sets: list[str] | None = None, **over
 
 def warn_ignored_textures(prof) -> None:
     """Say in one line (stderr) when ``prof``'s texture modes do nothing on its simulator
-    (:func:`navbench.sim.backends.ignored_textures`); ``run_profile`` says it for its commands."""
-    from navbench.sim.backends import ignored_textures
+    (:func:`navbench.pipeline.profiles.ignored_textures_note`); ``run_profile`` says it for its
+    commands."""
+    from navbench.pipeline.profiles import ignored_textures_note
 
-    note = ignored_textures(prof.sim, prof.views_texture, prof.episode.get("texture", "procedural"))
+    note = ignored_textures_note(prof)
     if note:
         from navbench.cli._common import err_console
 

@@ -82,21 +82,19 @@ class DoomSimulator(Simulator):
     frame is read; 2: the warp's own tic renders from near the floor, measured) and
     ``edge_steps`` (:func:`buffer_to_metres`; None keeps discontinuity pixels valid) and
     ``light_level`` (the sectors' light, :class:`~navbench.sim.doom.engine.DoomEngine`; the
-    default 192 fades distant surfaces, 255 does not). With
+    default 192 fades distant surfaces, 255 does not); ``texture`` is recorded but changes no
+    frame (the engine draws its own textures). With
     ``intrinsics=None`` nothing is read from the engine but its pose (it still runs, at
     160 x 120: the pose is its). ``pose_quantisation`` must stay ``"off"``: the engine
     quantises. Call :meth:`close` (or use ``with``) to stop the engine.
     """
 
-    #: the engine draws its own textures: an episode's ``texture`` mode (the pymunk camera's,
-    #: :mod:`navbench.sim.texels`) changes nothing here (:func:`navbench.nav.episode.run_episode`)
-    draws_own_textures = True
-
     def __init__(self, level: Level, noise="none", seed: int = 0,
                  intrinsics: Intrinsics | None = HALF_CAMERA, camera_height: float = CAMERA_HEIGHT,
                  enforce_direction_limit: bool = False, pose_quantisation: str = "off",
                  collision_check: str = "swept", depth: str = "buffer", settle_tics: int = 2,
-                 edge_steps: int | None = EDGE_STEPS, light_level: int = LIGHT_LEVEL):
+                 edge_steps: int | None = EDGE_STEPS, light_level: int = LIGHT_LEVEL,
+                 texture: str = "procedural"):
         if pose_quantisation != "off":
             raise ConfigError(f"DoomSimulator: pose_quantisation must be 'off' (the engine quantises the pose "
                               f"itself), got {pose_quantisation!r}")
@@ -109,8 +107,11 @@ class DoomSimulator(Simulator):
             raise ConfigError(f"DoomSimulator: the engine renders {' or '.join(f'{w}x{h}' for w, h in RESOLUTIONS)}, "
                               f"got {res[0]}x{res[1]}")
         self.engine = None
+        # texture: checked and recorded as the episode's config names it, but the engine draws its
+        # own textures, so it changes no frame (the mode is the pymunk camera's)
         super().__init__(level, noise, seed, intrinsics=None, camera_height=camera_height,
-                         enforce_direction_limit=enforce_direction_limit, collision_check=collision_check)
+                         enforce_direction_limit=enforce_direction_limit, collision_check=collision_check,
+                         texture=texture)
         self.engine = DoomEngine(level, res, seed=seed, camera_height=camera_height, settle_tics=settle_tics,
                                  light_level=light_level)
         self.resolution = res
