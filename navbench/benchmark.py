@@ -38,6 +38,11 @@ VERSIONS: dict[str, str] = {
     "navbench-3": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md), not yet the "
                   "default: navbench-1 with ours' and no-map's heading search scored on pixels spread "
                   "over the image (yaw_search_spread) instead of the image's top rows",
+    "navbench-4": "CANDIDATE (its acceptance grid not yet run): navbench-3 with navbench-2's speed levers "
+                  "taken where they leave the maps alone: the episode camera's textures as texel "
+                  "tables (the views the map is fitted on stay procedural, so every map is "
+                  "navbench-1's), and ours / no-map stopping Gauss-Newton when it has converged with "
+                  "the heading search run on turns only",
 }
 #: The version new runs are produced under.
 BENCHMARK_VERSION = "navbench-1"
@@ -62,10 +67,18 @@ VERSION_SETTINGS: dict[str, dict[str, object]] = {
     # first 400 of the tracker's row-sorted pixels, the image's top rows); nothing tuned: the
     # same 400 pixels, spread over the image
     "navbench-3": {f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")},
+    # navbench-3 and navbench-2's levers but the views' texture: navbench-2's grid lost house-2's
+    # passages through maps fitted from table-textured views (docs/changelog.md), so the views
+    # stay procedural and the maps (and task sets) are navbench-1's; nothing tuned anew
+    "navbench-4": {
+        "navigation.episode.texture": "table",
+        **{f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")},
+        **{f"navigation.options.{est}.{k}": v for est in ("ours", "no-map") for k, v in _CONVERGED.items()},
+    },
 }
 #: Versions that may be chosen but are not accepted (their acceptance grid not run, or failed),
 #: so new runs are not produced under them by default (:data:`BENCHMARK_VERSION`).
-CANDIDATES: frozenset[str] = frozenset({"navbench-2"})
+CANDIDATES: frozenset[str] = frozenset({"navbench-2", "navbench-4"})
 #: Where a version's setting reaches the cache keys: the dotted prefix of a setting -> the stages
 #: whose own key carries the version (:func:`key_part`). Every stage downstream changes with its
 #: inputs' keys, and the navigation grid's cells (episode rows, trajectories, score, report) carry
@@ -79,7 +92,7 @@ SETTING_STAGES: dict[str, tuple[str, ...]] = {
 #: The Gymnasium environment id of each version (the id's suffix follows the images).
 #: navbench-3 changes no image (only the built-in trackers), so its environment is navbench-1's.
 GYM_IDS: dict[str, str] = {"navbench-1": "navbench/PointNav-v0", "navbench-2": "navbench/PointNav-v1",
-                           "navbench-3": "navbench/PointNav-v0"}
+                           "navbench-3": "navbench/PointNav-v0", "navbench-4": "navbench/PointNav-v1"}
 
 
 class UnknownVersion(ValueError):
