@@ -94,7 +94,7 @@ def test_an_unknown_version_is_one_line_naming_the_known_ones(tmp_path, testing_
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "bad"\nbenchmark_version = "navbench-0"\n')
     with pytest.raises(ConfigError, match=r"bad.toml: benchmark_version: unknown value 'navbench-0'.*"
-                                          r"choose one of \['navbench-1', 'navbench-2', 'navbench-3', 'navbench-4', 'navbench-test'\]"):
+                                          r"choose one of \['navbench-1', 'navbench-2', 'navbench-3', 'navbench-4', 'navbench-5', 'navbench-test'\]"):
         load_profile(str(bad))
     with pytest.raises(ConfigError, match="--set: benchmark_version: unknown value 'navbench-0'"):
         apply_sets(load_profile("quick"), ["benchmark_version=navbench-0"])
