@@ -32,13 +32,15 @@ all: setup
 paper: setup
 	$(BIN)/navbench all --profile paper
 
-# The acceptance grid of the candidate benchmark version (docs/changelog.md): the same grid under
-# navbench-1 and navbench-2, one database each, then their paired differences (navbench-2 - navbench-1)
-# and the verdict (compare --acceptance exits 1 when navbench-2 is not accepted).
+# The acceptance grid of a candidate benchmark version (docs/changelog.md): the same grid under
+# navbench-1 and the candidate (CANDIDATE=navbench-5 by default), one database each, then their
+# paired differences and the verdict (compare --acceptance exits 1 when it is not accepted).
+# The candidate's run reuses navbench-1's views and maps where its settings leave them alone.
+CANDIDATE ?= navbench-5
 acceptance: setup
 	$(BIN)/navbench all --profile acceptance --benchmark-version navbench-1 --db sqlite:///results/acceptance-1.db --report results/acceptance-1
-	$(BIN)/navbench all --profile acceptance --benchmark-version navbench-2 --db sqlite:///results/acceptance-2.db --report results/acceptance-2
-	$(BIN)/navbench compare --acceptance --db sqlite:///results/acceptance-1.db --b-db sqlite:///results/acceptance-2.db --format markdown
+	$(BIN)/navbench all --profile acceptance --benchmark-version $(CANDIDATE) --db sqlite:///results/acceptance-$(CANDIDATE).db --report results/acceptance-$(CANDIDATE)
+	$(BIN)/navbench compare --acceptance --db sqlite:///results/acceptance-1.db --b-db sqlite:///results/acceptance-$(CANDIDATE).db --format markdown
 
 # The documentation site (MkDocs + Material, mkdocs.yml): built into site/, or served with live reload
 # at http://127.0.0.1:8000. --strict: a broken link, a missing anchor or a page left out of the

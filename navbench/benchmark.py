@@ -43,7 +43,8 @@ VERSIONS: dict[str, str] = {
                   "speed levers but the views' texture: the episode camera's textures as texel "
                   "tables, ours / no-map stopping Gauss-Newton when it has converged and searching "
                   "headings on turns only",
-    "navbench-5": "CANDIDATE (its acceptance grid not yet run): navbench-3 with the episode camera's "
+    "navbench-5": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md), not yet the "
+                  "default: navbench-3 with the episode camera's "
                   "textures as texel tables, an image approximation within half an 8-bit level; the "
                   "views the map is fitted on stay procedural, so every map is navbench-1's",
 }
@@ -88,7 +89,7 @@ VERSION_SETTINGS: dict[str, dict[str, object]] = {
 }
 #: Versions that may be chosen but are not accepted (their acceptance grid not run, or failed),
 #: so new runs are not produced under them by default (:data:`BENCHMARK_VERSION`).
-CANDIDATES: frozenset[str] = frozenset({"navbench-2", "navbench-4", "navbench-5"})
+CANDIDATES: frozenset[str] = frozenset({"navbench-2", "navbench-4"})
 #: Where a version's setting reaches the cache keys: the dotted prefix of a setting -> the stages
 #: whose own key carries the version (:func:`key_part`). Every stage downstream changes with its
 #: inputs' keys, and the navigation grid's cells (episode rows, trajectories, score, report) carry
