@@ -38,10 +38,10 @@ PINNED_METRIC_KEYS = [
     "agent_step_ms_paper_ref05", "control_step_ms_paper_ref05",  # issue 17, part 2
     "e2e_episodes_per_min_paper_ref05",  # the paper profile's ours
     "sim_frame_texture_ratio_half", "sim_frame_texture_ratio_paper",  # issue 36: texture modes
-    # issue 36: the version under test (navbench-4; navbench-2's _v2 rows until it failed) beside
+    # issue 36: the version under test (navbench-5; navbench-2's _v2 rows until it failed) beside
     # navbench-1 in the same run
-    "agent_step_ms_paper_ref05_v4", "control_step_ms_paper_ref05_v4", "e2e_episodes_per_min_paper_ref05_v4",
-    "e2e_v4_over_v1_paper_ref05",
+    "agent_step_ms_paper_ref05_v5", "control_step_ms_paper_ref05_v5", "e2e_episodes_per_min_paper_ref05_v5",
+    "e2e_v5_over_v1_paper_ref05",
 ]
 #: The other top-level keys of the result (host, map, config, per-key tables ...).
 PINNED_OTHER_KEYS = {
@@ -66,8 +66,8 @@ PINNED_PROGRESS = [
     "agent step (paper, reference_scale 0.5)", "control step (paper, reference_scale 0.5)",
     "end to end (2 tasks x 1 estimators, 2 workers), paper camera, ours reference_scale 0.5",
     "simulator frame, texture modes (half)", "simulator frame, texture modes (paper)",
-    "agent step (paper, reference_scale 0.5, navbench-4)", "control step (paper, reference_scale 0.5, navbench-4)",
-    "end to end (2 tasks x 1 estimators, 2 workers), paper camera, ours reference_scale 0.5, navbench-4",
+    "agent step (paper, reference_scale 0.5, navbench-5)", "control step (paper, reference_scale 0.5, navbench-5)",
+    "end to end (2 tasks x 1 estimators, 2 workers), paper camera, ours reference_scale 0.5, navbench-5",
     "done",
 ]
 
@@ -77,7 +77,7 @@ def test_metric_keys_are_the_table_and_pinned():
     assert [t.key for t in TARGETS] == ["render_ms_paper", "track_ms_ours_paper", "control_step_hz_paper",
                                         "control_step_hz_half", "emission_ours_ratio_half", "fit_10k_steps_s",
                                         "agent_step_ms_paper", "control_step_hz_paper",
-                                        "agent_step_ms_paper_ref05_v4", "e2e_v4_over_v1_paper_ref05"]
+                                        "agent_step_ms_paper_ref05_v5", "e2e_v5_over_v1_paper_ref05"]
 
 
 @pytest.fixture
@@ -145,11 +145,11 @@ def test_the_loop_gives_the_pinned_layout(fake_timers):
     agent = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("exclude")]
     assert len(agent) == 4 and all(kw["exclude"] == ("sim",) for kw in agent)
     # issue 17, part 2: the _ref05 rows pass ours' option reference_scale = 0.5, the others none;
-    # issue 36: the _v4 rows add navbench-4's settings (ours' options, the camera's texture mode)
+    # issue 36: the _v5 rows add navbench-5's settings (ours' options, the camera's texture mode)
     ref05 = [kw for name, _, kw in fake_timers if name == "time_control_step" and kw.get("options")]
     from navbench.benchmark import version_settings
 
-    v2 = {k.rsplit(".", 1)[1]: v for k, v in version_settings("navbench-4").items()
+    v2 = {k.rsplit(".", 1)[1]: v for k, v in version_settings("navbench-5").items()
           if k.startswith("navigation.options.ours.")}
     assert v2 and [kw["options"] for kw in ref05] == [{"reference_scale": 0.5}] * 2 + [{"reference_scale": 0.5, **v2}] * 2
     assert [kw.get("exclude", ()) for kw in ref05] == [("sim",), (), ("sim",), ()]

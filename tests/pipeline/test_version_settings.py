@@ -229,30 +229,51 @@ def test_runs_of_two_versions_store_their_own_rows_and_are_never_pooled(project,
     assert "benchmark navbench-test, departing: fit.seed=3 (the version's: 7)" in res.out
 
 
-def test_navbench_3_is_navbench_1_with_the_spread_heading_search(project):
-    """navbench-3 (accepted 2026-11-27) fixes exactly ``yaw_search_spread`` of ours and no-map:
-    tiny.toml run under it stores, episode for episode, what navbench-1 with the two --set
-    options stores (only the version and the keys that carry it differ), reuses navbench-1's
-    level, views and map, and leaves dynamics' rows as navbench-1's."""
+def _stores_what_navbench_1_stores_with(project, version: str, sets: list[str]) -> None:
+    """tiny.toml run under ``version`` stores, episode for episode, what navbench-1 with ``sets``
+    stores (only the version and the keys that carry it differ), reusing navbench-1's level,
+    views and map, with dynamics' rows as navbench-1's."""
     import sqlite3
 
     from navbench.pipeline.run import run_profile
 
-    assert benchmark.version_settings("navbench-3") == {
-        "navigation.options.ours.yaw_search_spread": True, "navigation.options.no-map.yaw_search_spread": True}
-    assert "navbench-3" not in benchmark.CANDIDATES and benchmark.BENCHMARK_VERSION == "navbench-1"
     base = apply_sets(load_profile("tiny.toml"), ["navigation.estimators=ours,no-map,dynamics"])
-    spread = ["navigation.options.ours.yaw_search_spread=true", "navigation.options.no-map.yaw_search_spread=true"]
-    v1 = run_profile(apply_sets(base, spread), db=f"sqlite:///{project / 'one.db'}", until="score")
-    v3 = run_profile(apply_sets(base, ["benchmark_version=navbench-3"]), db=f"sqlite:///{project / 'three.db'}",
+    v1 = run_profile(apply_sets(base, sets), db=f"sqlite:///{project / 'one.db'}", until="score")
+    vn = run_profile(apply_sets(base, [f"benchmark_version={version}"]), db=f"sqlite:///{project / 'new.db'}",
                      until="score")
-    assert v3.inputs[0].map.key == v1.inputs[0].map.key and v3.navigation.already_done == 0
+    assert vn.inputs[0].map.key == v1.inputs[0].map.key and vn.navigation.already_done == 0
     cols = ("level, task_id, estimator, noise, seed, success, spl_term, path_length, steps, end_reason, "
             "loc_rmse_m, rot_rmse_deg, map_key")
     rows = {}
-    for name in ("one", "three"):
+    for name in ("one", "new"):
         with sqlite3.connect(project / f"{name}.db") as con:
             rows[name] = con.execute(f"SELECT {cols} FROM episodes ORDER BY estimator, noise, task_id, seed").fetchall()
             versions = {v for (v,) in con.execute("SELECT DISTINCT benchmark_version FROM episodes")}
-        assert versions == {"navbench-1" if name == "one" else "navbench-3"}
-    assert rows["one"] == rows["three"] and len(rows["one"]) == v1.navigation.stored > 0
+        assert versions == {"navbench-1" if name == "one" else version}
+    assert rows["one"] == rows["new"] and len(rows["one"]) == v1.navigation.stored > 0
+
+
+_SPREAD = ["navigation.options.ours.yaw_search_spread=true", "navigation.options.no-map.yaw_search_spread=true"]
+
+
+def test_navbench_3_is_navbench_1_with_the_spread_heading_search(project):
+    """navbench-3 (accepted 2026-11-27) fixes exactly ``yaw_search_spread`` of ours and no-map."""
+    assert benchmark.version_settings("navbench-3") == {
+        "navigation.options.ours.yaw_search_spread": True, "navigation.options.no-map.yaw_search_spread": True}
+    assert "navbench-3" not in benchmark.CANDIDATES and benchmark.BENCHMARK_VERSION == "navbench-1"
+    _stores_what_navbench_1_stores_with(project, "navbench-3", _SPREAD)
+
+
+def test_navbench_5_is_navbench_3_with_table_textured_episode_frames(project):
+    """navbench-5 (accepted 2026-11-27) is navbench-3 plus the episode camera's texel tables and
+    nothing else: no stage key carries it (views, maps and tasks are navbench-1's) and its
+    Gymnasium id is the table images' ``-v1``. navbench-4 (its grid failed) adds the tracker
+    levers and stays a candidate."""
+    assert benchmark.version_settings("navbench-5") == {
+        **benchmark.version_settings("navbench-3"), "navigation.episode.texture": "table"}
+    assert benchmark.affected_stages("navbench-5") == frozenset() == benchmark.affected_stages("navbench-4")
+    assert "navbench-5" not in benchmark.CANDIDATES and "navbench-4" in benchmark.CANDIDATES
+    assert benchmark.GYM_IDS["navbench-5"] == benchmark.GYM_IDS["navbench-2"] == "navbench/PointNav-v1"
+    assert set(benchmark.version_settings("navbench-4")) - set(benchmark.version_settings("navbench-5")) == {
+        f"navigation.options.{e}.{k}" for e in ("ours", "no-map") for k in ("gn_geo_tol", "gn_tol", "yaw_search_turn_deg")}
+    _stores_what_navbench_1_stores_with(project, "navbench-5", [*_SPREAD, "navigation.episode.texture=table"])
