@@ -165,7 +165,12 @@ def test_ctrl_c_while_the_cli_is_still_importing_is_one_line(project):
             continue  # killed before the interpreter had installed its own handler (a loaded
             # machine's start-up; CPython's, out of navbench's reach); the bug printed a traceback
         if p.returncode != 0:  # 0: it finished before the signal came (a fast machine)
-            assert p.returncode == 130 and err.strip().splitlines()[-1] == "interrupted", (delay, p.returncode, err)
+            # 130, or death by SIGINT after the line: a shell reports both as status 130. The
+            # second was seen once, in CI beside a loaded machine (2026-11-27, delay 0.5 s): the
+            # line printed, then the process died by SIGINT (CPython re-raises SIGINT at exit
+            # when its unhandled-interrupt flag is set; which path set it was not traced)
+            assert p.returncode in (130, -signal.SIGINT) and err.strip().splitlines() == ["interrupted"], \
+                (delay, p.returncode, err)
 
 
 def test_a_library_import_keeps_its_own_ctrl_c():
