@@ -60,6 +60,8 @@ LEGACY_VERSION = "navbench-1"
 #: tracker's tolerances chosen on tune-house only). Its acceptance grid (profile ``acceptance``,
 #: 2026-11-27) did not accept it; it stays selectable so that grid can be reproduced.
 _CONVERGED = {"gn_geo_tol": [5e-4, 5e-4], "gn_tol": [5e-4, 5e-4], "yaw_search_turn_deg": 1.0}
+#: navbench-3's fix, which navbench-4 and navbench-5 build on.
+_SPREAD = {f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")}
 VERSION_SETTINGS: dict[str, dict[str, object]] = {
     "navbench-1": {},
     "navbench-2": {
@@ -70,22 +72,19 @@ VERSION_SETTINGS: dict[str, dict[str, object]] = {
     # the heading search's fix alone (docs/notebook/vizdoom.md: navbench-1's search scores the
     # first 400 of the tracker's row-sorted pixels, the image's top rows); nothing tuned: the
     # same 400 pixels, spread over the image
-    "navbench-3": {f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")},
+    "navbench-3": dict(_SPREAD),
     # navbench-3 and navbench-2's levers but the views' texture: navbench-2's grid lost house-2's
     # passages through maps fitted from table-textured views (docs/changelog.md), so the views
     # stay procedural and the maps (and task sets) are navbench-1's; nothing tuned anew
     "navbench-4": {
         "navigation.episode.texture": "table",
-        **{f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")},
+        **_SPREAD,
         **{f"navigation.options.{est}.{k}": v for est in ("ours", "no-map") for k, v in _CONVERGED.items()},
     },
     # navbench-4's grid failed on the claim: its tracker levers make no-map as good as ours at
     # mid noise. The image lever alone (a texel table is within 1.43e-3 of the procedural colour)
     # is an approximation of the camera, not a change of a method: navbench-3 with it
-    "navbench-5": {
-        "navigation.episode.texture": "table",
-        **{f"navigation.options.{est}.yaw_search_spread": True for est in ("ours", "no-map")},
-    },
+    "navbench-5": {"navigation.episode.texture": "table", **_SPREAD},
 }
 #: Versions that may be chosen but are not accepted (their acceptance grid not run, or failed),
 #: so new runs are not produced under them by default (:data:`BENCHMARK_VERSION`).
