@@ -32,6 +32,14 @@ from navbench.bench.core import (
 )
 from navbench.geometry import CAMERA_NAMES, CAMERAS
 
+#: The version the ``_v5`` rows measure beside navbench-1 (issue 36: "the bench measures both
+#: versions side by side"): the newest accepted version, the next default's candidate. Until
+#: 2026-11-27 these rows were ``_v2``, navbench-2's, whose acceptance grid failed (their figures:
+#: docs/notebook/speed.md); docs/data/speed/versions_ab.py measures any number of versions.
+VERSUS = "navbench-5"
+#: The suffix of :data:`VERSUS`'s rows: ``_v5`` for navbench-5.
+_VS = f"_v{VERSUS.rsplit('-', 1)[1]}"
+
 TARGETS: tuple[Target, ...] = (
     Target("render_ms_paper", "<=", 10.0, "map render, paper camera <= 10 ms"),
     Target("track_ms_ours_paper", "<=", 30.0, "ours tracking step, paper camera <= 30 ms"),
@@ -45,8 +53,8 @@ TARGETS: tuple[Target, ...] = (
     Target("agent_step_ms_paper", "<=", 8.0, "agent step (render + track + plan + control), paper camera <= 8 ms"),
     Target("control_step_hz_paper", ">=", 75.0, "full control step, paper camera >= 75 Hz"),
     # issue 36: the version under test against navbench-1 in the same bench run
-    Target("agent_step_ms_paper_ref05_v5", "<=", 5.0, "agent step under navbench-5, paper camera <= 5 ms"),
-    Target("e2e_v5_over_v1_paper_ref05", ">=", 2.0, "episodes a minute, navbench-5 / navbench-1 >= 2"),
+    Target(f"agent_step_ms_paper_ref05{_VS}", "<=", 5.0, f"agent step under {VERSUS}, paper camera <= 5 ms"),
+    Target(f"e2e{_VS}_over_v1_paper_ref05", ">=", 2.0, f"episodes a minute, {VERSUS} / navbench-1 >= 2"),
 )
 
 #: ours' options of the ``_ref05`` rows (issue 17, part 2).
@@ -63,19 +71,19 @@ def version_levers(version: str) -> tuple[dict, dict]:
     return nav.get("options", {}), nav.get("episode", {})
 
 
-#: The version the ``_v5`` rows measure beside navbench-1 (issue 36: "the bench measures both
-#: versions side by side"): the newest accepted version, the next default's candidate. Until
-#: 2026-11-27 these rows were ``_v2``, navbench-2's, whose acceptance grid failed (their figures:
-#: docs/notebook/speed.md); docs/data/speed/versions_ab.py measures any number of versions.
-VERSUS = "navbench-5"
+def paper_levers(version: str) -> tuple[dict, dict]:
+    """``version``'s levers (:func:`version_levers`) with ``ours`` at the paper profile's
+    ``reference_scale`` 0.5 under them: ``(estimator options by name, episode settings)``."""
+    options, episode = version_levers(version)
+    return {**options, "ours": {**REF05, **options.get("ours", {})}}, episode
 
 
 def _versus_ours() -> dict:
     """The ``time_control_step`` keywords of ours under :data:`VERSUS`: its ``options`` (the paper
     profile's ``reference_scale`` 0.5 and the version's levers) and the camera's ``texture``."""
-    options, episode = version_levers(VERSUS)
-    return {"options": {**REF05, **options.get("ours", {})},
-            "texture": episode.get("texture", "procedural")}
+    options, episode = paper_levers(VERSUS)
+    return {"options": options["ours"], "texture": episode.get("texture", "procedural")}
+
 
 TRACKERS = (  # (key part, estimator name, options, label)
     ("ours", "ours", {}, "ours, default"),
@@ -232,13 +240,11 @@ def _e2e_run(ctx: BenchContext, camera: str = "half", options: dict | None = Non
 def _e2e_run_version(ctx: BenchContext, version: str) -> timers.Throughput:
     """The paper-camera end-to-end run with ``ours`` at ``reference_scale`` 0.5 under
     ``version``'s settings."""
-    options, episode = version_levers(version)
-    options = {**options, "ours": {**REF05, **options.get("ours", {})}}
-    return _e2e_run(ctx, "paper", options, episode)
+    return _e2e_run(ctx, "paper", *paper_levers(version))
 
 
 def _versus_ratio(ctx: BenchContext, _n: int) -> Reading:
-    v1, v2 = ctx.value("e2e_episodes_per_min_paper_ref05"), ctx.value("e2e_episodes_per_min_paper_ref05_v5")
+    v1, v2 = ctx.value("e2e_episodes_per_min_paper_ref05"), ctx.value(f"e2e_episodes_per_min_paper_ref05{_VS}")
     if not v1 or not v2:
         return Reading(value=None, note="needs both end-to-end rows")
     return Reading(value=v2 / v1, note=f"{v2:.1f} / {v1:.1f} episodes a minute, the same tasks, workers "
@@ -254,7 +260,7 @@ SHARED: dict[str, tuple[Callable[[BenchContext], str], Callable[[BenchContext], 
     "e2e_paper_ref05": (lambda ctx: _e2e_progress(ctx) + ", paper camera, ours reference_scale 0.5",
                         lambda ctx: _e2e_run(ctx, "paper", {"ours": REF05})),
     # the same under VERSUS's settings (its estimator options and the camera's texture mode)
-    "e2e_paper_ref05_v5": (lambda ctx: _e2e_progress(ctx) + f", paper camera, ours reference_scale 0.5, {VERSUS}",
+    f"e2e_paper_ref05{_VS}": (lambda ctx: _e2e_progress(ctx) + f", paper camera, ours reference_scale 0.5, {VERSUS}",
                            lambda ctx: _e2e_run_version(ctx, VERSUS)),
 }
 
@@ -540,7 +546,7 @@ TABLE: tuple[Measurement, ...] = (
       for cam in CAMERA_NAMES),
     # issue 36: the version under test (VERSUS) beside navbench-1 in the same run (its levers:
     # navbench.benchmark)
-    *(Measurement(f"{what}_ms_paper_ref05_v5", "control", f"{label} (ours, reference_scale 0.5), paper, {VERSUS}",
+    *(Measurement(f"{what}_ms_paper_ref05{_VS}", "control", f"{label} (ours, reference_scale 0.5), paper, {VERSUS}",
                   lambda ctx, n, ex=ex: timers.time_control_step(
                       ctx.level, ctx.vmap, CAMERAS["paper"], n, seed=ctx.seed, budget_s=ctx.budget,
                       exclude=ex, **_versus_ours()),
@@ -548,11 +554,11 @@ TABLE: tuple[Measurement, ...] = (
                   progress=f"{label} (paper, reference_scale 0.5, {VERSUS})",
                   note=f"as the _ref05 row, with {VERSUS}'s settings (ours' options and the camera's texture mode)")
       for what, label, ex in (("agent_step", "agent step", ("sim",)), ("control_step", "control step", ()))),
-    Measurement("e2e_episodes_per_min_paper_ref05_v5", "end to end",
+    Measurement(f"e2e_episodes_per_min_paper_ref05{_VS}", "end to end",
                 f"episodes per minute, paper camera, ours reference_scale 0.5, {VERSUS}",
-                _e2e("episodes", "paper", "e2e_paper_ref05_v5", f", ours reference_scale 0.5, {VERSUS}"),
-                unit="episodes/min", needs=_e2e_why, uses=("e2e_paper_ref05_v5",)),
-    Measurement("e2e_v5_over_v1_paper_ref05", "end to end", f"episodes per minute, {VERSUS} / navbench-1",
+                _e2e("episodes", "paper", f"e2e_paper_ref05{_VS}", f", ours reference_scale 0.5, {VERSUS}"),
+                unit="episodes/min", needs=_e2e_why, uses=(f"e2e_paper_ref05{_VS}",)),
+    Measurement(f"e2e{_VS}_over_v1_paper_ref05", "end to end", f"episodes per minute, {VERSUS} / navbench-1",
                 _versus_ratio, unit="x", needs=_e2e_why),
 )
 

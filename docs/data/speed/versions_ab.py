@@ -20,17 +20,11 @@ import os
 import numpy as np
 
 from navbench.bench import timers
-from navbench.bench.table import REF05, version_levers
+from navbench.bench.table import paper_levers
 from navbench.benchmark import check_version
 from navbench.geometry import CAMERAS
 from navbench.levelio import resolve_level
 from navbench.worldmodel.grid import load_map
-
-
-def levers(version: str) -> tuple[dict, dict]:
-    """(estimator options with ours at reference_scale 0.5, episode settings) of ``version``."""
-    options, episode = version_levers(version)
-    return {**options, "ours": {**REF05, **options.get("ours", {})}}, episode
 
 
 def rotated(items: list, r: int) -> list:
@@ -49,12 +43,12 @@ def main() -> None:
     versions = [check_version(v.strip()) for v in a.versions.split(",")]
     level, vmap = resolve_level(a.level_file), load_map(a.map)
     out = {"versions": versions, "workers": a.workers, "steps": a.steps, "tasks": a.tasks, "rounds": a.rounds,
-           "load_start": os.getloadavg()[0], "levers": {v: levers(v) for v in versions}}
+           "load_start": os.getloadavg()[0], "levers": {v: paper_levers(v) for v in versions}}
     step: dict[str, list[float]] = {}
     for r in range(a.rounds):
         for est in ("ours", "no-map"):
             for v in rotated(versions, r):
-                options, episode = levers(v)
+                options, episode = paper_levers(v)
                 for what, ex in (("agent", ("sim",)), ("control", ())):
                     t = timers.time_control_step(level, vmap, CAMERAS["paper"], a.steps, estimator=est, exclude=ex,
                                                  options=options.get(est, {}),
@@ -65,7 +59,7 @@ def main() -> None:
     e2e: dict[str, list[float]] = {}
     for r in range(a.rounds):
         for v in rotated(versions, r):
-            options, episode = levers(v)
+            options, episode = paper_levers(v)
             tp = timers.time_navigation(a.level_file, vmap, tasks, ("ours", "no-map", "dynamics"), a.workers,
                                         camera="paper", noise="mid", seed=0, estimator_options=options,
                                         episode=episode)
