@@ -6,8 +6,9 @@ this level's episodes run.
 threads, 1 by default) and then run the episodes: on an N-core machine N - 1 cores waited
 during every fit. With overlap, one *prefetch* process walks the levels after the first, in
 order, and runs their cached stages (make-level, collect-views, fit-map, sample-tasks) into the
-artifact store, while this process builds the first level and then runs each level's episodes
-on the executor. Before a level's episodes, this process builds that level's inputs exactly as
+artifact store, while this process fits the first level's map and then runs each level's
+episodes on the executor. It starts once the first level's views are collected, so that its
+own views do not take the cores those need (:meth:`Prefetcher.start`). Before a level's episodes, this process builds that level's inputs exactly as
 without overlap (:func:`~navbench.pipeline.stages.inputs.build_level_inputs`): the stages find
 what the prefetch process stored, under the same keys, so the artifacts, the keys, the
 database records and the episode rows are the ones a run without overlap makes (only the
@@ -162,13 +163,24 @@ class Prefetcher:
         self._stopping = False
 
     def __enter__(self) -> "Prefetcher":
+        return self
+
+    def start(self) -> None:
+        """Start the prefetch process (once; a later call does nothing).
+
+        The command calls it when its first level's views are collected, not on entry: started
+        beside those views, the background's views took the same cores (on 16 cores, 16 + 16
+        view workers and two fits sharing the GPU: house-1's views and fit took 155 s instead
+        of 42 s, 2026-11-27). From then on the first level's fit (one thread, or the GPU) leaves
+        the other cores to the background.
+        """
         import multiprocessing as mp
 
         from navbench.pipeline.executor import FORKSERVER_PRELOAD
         from navbench.proc import process_start_token
 
-        if not self.names:
-            return self
+        if not self.names or self.proc is not None or self._stopping:
+            return
         method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
         mpc = mp.get_context(method)
         if method == "forkserver":  # dies with the command (as LocalExecutor's)
@@ -186,7 +198,6 @@ class Prefetcher:
         self._reader.start()
         self.log(f"overlap: {', '.join(self.names)} built in a background process (pid "
                  f"{self.proc.pid}) while the episodes run")
-        return self
 
     def _read(self) -> None:
         try:
@@ -230,7 +241,10 @@ class Prefetcher:
 
     def wait(self, name: str) -> dict:
         """The stages the prefetch process computed for level ``name`` (see the class)."""
-        if self.proc is None or name not in self.names:
+        if name not in self.names:
+            return {}
+        self.start()  # normally started already, by the first level's build
+        if self.proc is None:
             return {}
         with self._cond:
             while name not in self._done:

@@ -292,7 +292,9 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
                 if waited >= 1.0:
                     ctx.log(f"overlap: waited {waited:.1f} s for {name}'s inputs (its fit outlasted "
                             f"the episodes before it)")
-            li = build_level_inputs(ctx, profile, name)
+            # the background starts once the first level's views are there (Prefetcher.start)
+            li = build_level_inputs(ctx, profile, name, before_fit=pre.start)
+            pre.start()
             if goals:
                 from navbench.pipeline.stages.inputs import with_image_goals
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from typing import Callable
 
 from navbench.errors import ArtifactError, ConfigError
 from navbench.pipeline.artifacts import VIEWS_FILE
@@ -27,12 +28,14 @@ class LevelInputs:
 
 
 def build_level_inputs(ctx: StageContext, profile, level_name: str,
-                       views_key: str | None = None) -> LevelInputs:
+                       views_key: str | None = None,
+                       before_fit: Callable[[], None] | None = None) -> LevelInputs:
     """Run (or fetch from the cache) make-level -> collect-views (train and held-out) -> fit-map
     -> sample-tasks for one level with ``profile``'s settings. ``views_key`` replaces the
     training views by a stored collect-views artifact. ``profile.map_source``: ``fit`` (the
     fitted world model), ``true`` (the voxelized true geometry; no views are collected) or a
-    map file path, where ``{level}`` stands for the level's name (:func:`map_file_stage`)."""
+    map file path, where ``{level}`` stands for the level's name (:func:`map_file_stage`).
+    ``before_fit`` is called once the views are there, before the fit (the overlap's start)."""
     from navbench.pipeline.stages.online import is_online
 
     under_version(ctx, profile)
@@ -49,7 +52,7 @@ def build_level_inputs(ctx: StageContext, profile, level_name: str,
     if source != "fit":
         return LevelInputs(level, map_file_stage(ctx, level, source),
                            sample_tasks_stage(ctx, level, tasks_config(profile)))
-    vmap = fit_map_for_profile(ctx, profile, level, views_key)
+    vmap = fit_map_for_profile(ctx, profile, level, views_key, before_fit)
     tasks = sample_tasks_stage(ctx, level, tasks_config(profile))
     return LevelInputs(level, vmap, tasks)
 
@@ -76,8 +79,10 @@ def with_image_goals(ctx: StageContext, inputs: LevelInputs, cfg, sim: str = "py
                                                                sim))
 
 
-def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None) -> Ref:
-    """collect-views (train and held-out) -> fit-map for one level with ``profile``'s settings."""
+def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str | None = None,
+                        before_fit: Callable[[], None] | None = None) -> Ref:
+    """collect-views (train and held-out) -> fit-map for one level with ``profile``'s settings;
+    ``before_fit`` is called between the two."""
     under_version(ctx, profile)
     cfg = FitMapConfig(profile.fit_steps, profile.fit_seed, dict(profile.fit), profile.eval_views,
                        profile.eval_seed)
@@ -103,4 +108,6 @@ def fit_map_for_profile(ctx: StageContext, profile, level: Ref, views_key: str |
                                                             texture=profile.views_texture, sim=sim))
     held = collect_views_stage(ctx, level, ViewsConfig(profile.eval_views, camera, profile.eval_seed,
                                                        texture=profile.views_texture, sim=sim))
+    if before_fit is not None:
+        before_fit()
     return fit_map_stage(ctx, level, views, held, cfg)
