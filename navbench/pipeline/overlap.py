@@ -6,9 +6,9 @@ this level's episodes run.
 threads, 1 by default) and then run the episodes: on an N-core machine N - 1 cores waited
 during every fit. With overlap, one *prefetch* process walks the levels after the first, in
 order, and runs their cached stages (make-level, collect-views, fit-map, sample-tasks) into the
-artifact store, while this process fits the first level's map and then runs each level's
-episodes on the executor. It starts once the first level's views are collected, so that its
-own views do not take the cores those need (:meth:`Prefetcher.start`). Before a level's episodes, this process builds that level's inputs exactly as
+artifact store, while this process builds the first level and then runs each level's episodes
+on the executor. On a machine of more than two cores it starts once the first level's views are
+collected, so that its own views do not take the cores those need (:func:`starts_at_once`). Before a level's episodes, this process builds that level's inputs exactly as
 without overlap (:func:`~navbench.pipeline.stages.inputs.build_level_inputs`): the stages find
 what the prefetch process stored, under the same keys, so the artifacts, the keys, the
 database records and the episode rows are the ones a run without overlap makes (only the
@@ -46,6 +46,28 @@ from navbench.pipeline.stages.context import StageContext
 STOP_TIMEOUT_S = 15.0
 #: Seconds between two progress messages of one bar from the prefetch process.
 _BAR_INTERVAL_S = 0.5
+#: Machines with at most this many cores start the prefetch process with the command; larger
+#: ones once the first level's views are collected (:func:`starts_at_once`).
+AT_ONCE_MAX_CORES = 2
+
+
+def starts_at_once(cores: int | None = None) -> bool:
+    """Whether the prefetch process starts with the command (``True``) or once the first
+    level's views are collected, before its fit (``False``), on a machine of ``cores`` cores
+    (this one's by default). Measured both ways (2026-11-27, the paper camera, two levels):
+
+    - 16 cores (the H100 machine, GPU fit): started with the command, the background's views
+      took the cores the first level's views rendered on (the camera renders on every core) and
+      the first level's build took ~156 s; started after them, ~74 s.
+    - 2 cores: one process's views used about one core (134 views/s each with two at once, about
+      as fast as alone), so the two levels' views shared the machine for free; started after
+      them, the background's views slowed the first level's fit instead (the first level's fit
+      180–210 s with the background started with the command, 193–303 s after the views).
+    Between the two, unmeasured: the larger machine's order, the one that keeps the first level's
+    views to themselves.
+    """
+    n = cores if cores is not None else (os.cpu_count() or 1)
+    return n <= AT_ONCE_MAX_CORES
 
 
 def overlap_applies(profile, executor: str, workers: int) -> str | None:
@@ -168,11 +190,8 @@ class Prefetcher:
     def start(self) -> None:
         """Start the prefetch process (once; a later call does nothing).
 
-        The command calls it when its first level's views are collected, not on entry: started
-        beside those views, the background's views took the same cores (on 16 cores, 16 + 16
-        view workers and two fits sharing the GPU: house-1's views and fit took 155 s instead
-        of 42 s, 2026-11-27). From then on the first level's fit (one thread, or the GPU) leaves
-        the other cores to the background.
+        The command calls it on entry or once its first level's views are collected, as
+        :func:`starts_at_once` says for this machine.
         """
         import multiprocessing as mp
 

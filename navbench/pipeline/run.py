@@ -274,7 +274,7 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
     import time
 
     from navbench.pipeline.executor import make_executor
-    from navbench.pipeline.overlap import Prefetcher, summed_summary
+    from navbench.pipeline.overlap import Prefetcher, starts_at_once, summed_summary
     from navbench.pipeline.stages import build_level_inputs, run_navigation_stage
     from navbench.pipeline.stages.level import LevelConfig, make_level_stage
 
@@ -284,6 +284,8 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
     inputs, parts = [], []
     with Prefetcher(profile, names[1:], ctx, progress.log, ctx.progress) as pre, \
             make_executor(executor, profile.workers, address) as ex:
+        if starts_at_once():
+            pre.start()
         for i, name in enumerate(names):
             if i:
                 t0 = time.perf_counter()
@@ -292,7 +294,7 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
                 if waited >= 1.0:
                     ctx.log(f"overlap: waited {waited:.1f} s for {name}'s inputs (its fit outlasted "
                             f"the episodes before it)")
-            # the background starts once the first level's views are there (Prefetcher.start)
+            # or the background starts once the first level's views are there (starts_at_once)
             li = build_level_inputs(ctx, profile, name, before_fit=pre.start)
             pre.start()
             if goals:

@@ -104,13 +104,16 @@ def run_two(root: Path, overlap: bool, monkeypatch):
 
 @pytest.mark.slow
 def test_two_levels_give_the_same_rows_and_artifacts_with_and_without_overlap(tmp_path, monkeypatch):
+    from navbench.pipeline import overlap
+
+    monkeypatch.setattr(overlap, "AT_ONCE_MAX_CORES", 0)  # the order of a machine of > 2 cores
     on, on_lines = run_two(two_levels(tmp_path / "on"), True, monkeypatch)
     off, off_lines = run_two(two_levels(tmp_path / "off"), False, monkeypatch)
     # the overlapped path ran (tiny2 built in the background), the other did not
     assert any(ln.startswith("overlap: tiny2 built in a background process") for ln in on_lines), on_lines
     assert not any("overlap" in ln or ln.startswith("background") for ln in off_lines), off_lines
     # it started once tiny's views were collected, before tiny's fit: not beside those views
-    # (on 16 cores the two levels' views shared the cores and the first level took 3.7x longer)
+    # (on 16 cores the two levels' views shared the cores and the first level took 2x longer)
     start = next(i for i, ln in enumerate(on_lines) if ln.startswith("overlap: tiny2 built"))
     views = [i for i, ln in enumerate(on_lines) if ln.startswith("collect-views: computing")]
     fit = next(i for i, ln in enumerate(on_lines) if ln.startswith("fit-map: computing"))
@@ -142,11 +145,27 @@ def test_two_levels_give_the_same_rows_and_artifacts_with_and_without_overlap(tm
     assert len([i for i in stages if off_lines[i].startswith("fit-map: computing")]) == 2
     assert max(stages) < first_episode, off_lines
 
+    # on a machine of at most 2 cores it starts with the command, and the rows are the same
+    monkeypatch.setattr(overlap, "AT_ONCE_MAX_CORES", 10 ** 6)
+    early, early_lines = run_two(two_levels(tmp_path / "early"), True, monkeypatch)
+    start = next(i for i, ln in enumerate(early_lines) if ln.startswith("overlap: tiny2 built"))
+    assert start < min(i for i, ln in enumerate(early_lines) if ln.startswith("collect-views")), early_lines
+    assert rows(tmp_path / "early" / "nb.db") == want
+    assert artifacts(tmp_path / "early" / "cache") == a_off
+
     # a rerun of either finds everything stored and computes nothing
     again, again_lines = run_two(tmp_path / "on", True, monkeypatch)
     assert again.navigation.stored == 0 and again.navigation.already_done == 12
     assert not any(": computing" in ln for ln in again_lines), again_lines
     assert artifacts(tmp_path / "on" / "cache") == a_on
+
+
+def test_the_background_starts_with_the_command_on_two_cores_and_after_the_views_above():
+    from navbench.pipeline.overlap import starts_at_once
+
+    assert starts_at_once(1) and starts_at_once(2)
+    assert not starts_at_once(3) and not starts_at_once(16)
+    assert starts_at_once() == ((os.cpu_count() or 1) <= 2)
 
 
 def test_overlap_applies_only_where_it_can_pay():
