@@ -70,6 +70,17 @@ def starts_at_once(cores: int | None = None) -> bool:
     return n <= AT_ONCE_MAX_CORES
 
 
+def numba_threads(n: int) -> int:
+    """Run this (calling) thread's compiled kernels on ``n`` numba threads (at most numba's
+    pool); returns the count before. The kernels give the same bits on any count (the camera's
+    pixels and the fit's rays are independent; ``tests/worldmodel/test_fit.py`` checks the fit)."""
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(n), numba.config.NUMBA_NUM_THREADS)))
+    return before
+
+
 def overlap_applies(profile, executor: str, workers: int) -> str | None:
     """Why a run of ``profile`` does not overlap (a phrase), or ``None`` when it does."""
     from navbench.pipeline.stages.online import is_online
@@ -94,6 +105,11 @@ def _prefetch_main(conn, profile, names: list[str], cache_root: str, levels_dir:
 
     die_with_parent()
     watch_parent(parent_pid, parent_token)
+    # one thread: it always runs beside other work (the first level's build, then the episodes
+    # on every core), and numba's parallel kernels on more threads than the cores they get wait
+    # on each other: two paper-camera fits at once on 2 cores took 48-68 ms a step each on two
+    # threads, 12.4-13.2 on one (alone: 10.0-10.4 and 12.4-12.6; 2026-11-27)
+    numba_threads(1)
     from navbench.interrupts import terminate_as_interrupt
 
     # SIGINT (and SIGTERM) as in a command, a Ctrl-C: the fit stops at its next checkpoint
@@ -187,8 +203,9 @@ class Prefetcher:
     def __enter__(self) -> "Prefetcher":
         return self
 
-    def start(self) -> None:
-        """Start the prefetch process (once; a later call does nothing).
+    def start(self) -> bool:
+        """Start the prefetch process (once: a later call does nothing); ``True`` when this
+        call started it.
 
         The command calls it on entry or once its first level's views are collected, as
         :func:`starts_at_once` says for this machine.
@@ -199,7 +216,7 @@ class Prefetcher:
         from navbench.proc import process_start_token
 
         if not self.names or self.proc is not None or self._stopping:
-            return
+            return False
         method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
         mpc = mp.get_context(method)
         if method == "forkserver":  # dies with the command (as LocalExecutor's)
@@ -217,6 +234,7 @@ class Prefetcher:
         self._reader.start()
         self.log(f"overlap: {', '.join(self.names)} built in a background process (pid "
                  f"{self.proc.pid}) while the episodes run")
+        return True
 
     def _read(self) -> None:
         try:

@@ -20,6 +20,7 @@ bars, and a function receives the same lines as text (:class:`navbench.pipeline.
 from __future__ import annotations
 
 import dataclasses
+import os
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -274,7 +275,7 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
     import time
 
     from navbench.pipeline.executor import make_executor
-    from navbench.pipeline.overlap import Prefetcher, starts_at_once, summed_summary
+    from navbench.pipeline.overlap import Prefetcher, numba_threads, starts_at_once, summed_summary
     from navbench.pipeline.stages import build_level_inputs, run_navigation_stage
     from navbench.pipeline.stages.level import LevelConfig, make_level_stage
 
@@ -284,8 +285,14 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
     inputs, parts = [], []
     with Prefetcher(profile, names[1:], ctx, progress.log, ctx.progress) as pre, \
             make_executor(executor, profile.workers, address) as ex:
+        before: list[int] = []  # this process's numba threads before the background took a core
+
+        def start() -> None:  # the background on one thread, and this process on the rest
+            if pre.start():
+                before.append(numba_threads((os.cpu_count() or 1) - 1))
+
         if starts_at_once():
-            pre.start()
+            start()
         for i, name in enumerate(names):
             if i:
                 t0 = time.perf_counter()
@@ -295,8 +302,10 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
                     ctx.log(f"overlap: waited {waited:.1f} s for {name}'s inputs (its fit outlasted "
                             f"the episodes before it)")
             # or the background starts once the first level's views are there (starts_at_once)
-            li = build_level_inputs(ctx, profile, name, before_fit=pre.start)
-            pre.start()
+            li = build_level_inputs(ctx, profile, name, before_fit=start)
+            start()
+            if before:  # the first level is built: its episodes run in the workers
+                numba_threads(before.pop())
             if goals:
                 from navbench.pipeline.stages.inputs import with_image_goals
 

@@ -56,6 +56,31 @@ def test_same_seed_same_map(data):
     assert not np.array_equal(a.occ, c.occ)
 
 
+def test_the_same_map_on_one_and_on_several_numba_threads(data):
+    """The overlap's background process fits on one numba thread and the command beside it on
+    the cores left (pipeline.overlap.numba_threads): the map must not depend on the count."""
+    import numba
+
+    from navbench.pipeline.overlap import numba_threads
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread here (NUMBA_NUM_THREADS)")
+    train, held = data
+    cfg = FitConfig(seed=3, **{**CPU, "steps": 40})
+    maps = []
+    for n in (1, numba.config.NUMBA_NUM_THREADS):
+        before = numba_threads(n)
+        try:
+            assert numba.get_num_threads() == n
+            maps.append(fit_map(train, cfg, heldout=held))
+        finally:
+            numba_threads(before)
+    (a, ma), (b, mb) = maps
+    np.testing.assert_array_equal(a.occ, b.occ)
+    np.testing.assert_array_equal(a.col, b.col)
+    assert ma["depth_mae_m"] == mb["depth_mae_m"] and ma["rgb_l1"] == mb["rgb_l1"]
+
+
 def test_progress_is_called(data):
     calls = []
     fit_map(data[0], FitConfig(**{**CPU, "steps": 20}), progress=lambda s, t, l: calls.append((s, t)))
