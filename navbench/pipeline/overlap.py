@@ -8,12 +8,14 @@ during every fit. With overlap, one *prefetch* process walks the levels after th
 order, and runs their cached stages (make-level, collect-views, fit-map, sample-tasks) into the
 artifact store, while this process builds the first level and then runs each level's episodes
 on the executor. On a machine of more than two cores it starts once the first level's views are
-collected, so that its own views do not take the cores those need (:func:`starts_at_once`). Before a level's episodes, this process builds that level's inputs exactly as
-without overlap (:func:`~navbench.pipeline.stages.inputs.build_level_inputs`): the stages find
-what the prefetch process stored, under the same keys, so the artifacts, the keys, the
-database records and the episode rows are the ones a run without overlap makes (only the
-order in which rows are inserted differs: level by level). The prefetch process never touches
-the database.
+collected, so that its own views do not take the cores those need (:func:`starts_at_once`), and
+it runs its compiled kernels on one thread, this process on the cores left while it builds the
+first level (:func:`numba_threads`). Before a level's episodes, this process builds that
+level's inputs exactly as without overlap
+(:func:`~navbench.pipeline.stages.inputs.build_level_inputs`): the stages find what the
+prefetch process stored, under the same keys, so the artifacts, the keys, the database records
+and the episode rows are the ones a run without overlap makes (only the order in which rows are
+inserted differs: level by level). The prefetch process never touches the database.
 
 The prefetch process is one process beside the ``--workers N`` episode workers (N + 1
 processes on N cores while a fit runs): the fit is one thread, and a pool shrunk to N - 1 would
