@@ -280,10 +280,7 @@ class Prefetcher:
 
     def wait(self, name: str) -> dict:
         """The stages the prefetch process computed for level ``name`` (see the class)."""
-        if name not in self.names:
-            return {}
-        self.start()  # normally started already, by the first level's build
-        if self.proc is None:
+        if self.proc is None or name not in self.names:
             return {}
         with self._cond:
             while name not in self._done:

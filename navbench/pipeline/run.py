@@ -302,8 +302,7 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
                     ctx.log(f"overlap: waited {waited:.1f} s for {name}'s inputs (its fit outlasted "
                             f"the episodes before it)")
             # or the background starts once the first level's views are there (starts_at_once)
-            li = build_level_inputs(ctx, profile, name, before_fit=start)
-            start()
+            li = build_level_inputs(ctx, profile, name, before_fit=None if i else start)
             if before:  # the first level is built: its episodes run in the workers
                 numba_threads(before.pop())
             if goals:
