@@ -30,26 +30,27 @@ from __future__ import annotations
 #: Every version, oldest first, with what defines it (the changelog has the details).
 VERSIONS: dict[str, str] = {
     "navbench-1": "the pymunk simulator with per-pixel procedural textures, the paper's fit and "
-                  "trackers as first reproduced (every result stored before versions existed)",
+                  "trackers as first reproduced (every result stored before versions existed; the "
+                  "default until 2026-11-27, selectable)",
     "navbench-2": "CANDIDATE, NOT ACCEPTED (its acceptance grid failed, 2026-11-27; "
                   "docs/changelog.md): the camera's textures as texel tables, and ours / no-map "
                   "stopping Gauss-Newton when it has converged with the heading search run on "
                   "turns only",
-    "navbench-3": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md), not yet the "
-                  "default: navbench-1 with ours' and no-map's heading search scored on pixels spread "
+    "navbench-3": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md): navbench-1 with ours' and no-map's heading search scored on pixels spread "
                   "over the image (yaw_search_spread) instead of the image's top rows",
     "navbench-4": "CANDIDATE, NOT ACCEPTED (its acceptance grid failed, 2026-11-27: the paper's claim "
                   "against no-map at mid noise; docs/changelog.md): navbench-3 with navbench-2's "
                   "speed levers but the views' texture: the episode camera's textures as texel "
                   "tables, ours / no-map stopping Gauss-Newton when it has converged and searching "
                   "headings on turns only",
-    "navbench-5": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md), not yet the "
-                  "default: navbench-3 with the episode camera's "
+    "navbench-5": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md), THE DEFAULT "
+                  "since 2026-11-27: navbench-3 with the episode camera's "
                   "textures as texel tables, an image approximation within half an 8-bit level; the "
                   "views the map is fitted on stay procedural, so every map is navbench-1's",
 }
-#: The version new runs are produced under.
-BENCHMARK_VERSION = "navbench-1"
+#: The version new runs are produced under: the newest accepted one (navbench-5 since 2026-11-27;
+#: navbench-1 before). A profile's ``benchmark_version`` or ``--benchmark-version`` selects another.
+BENCHMARK_VERSION = "navbench-5"
 #: The version of rows stored before the column existed.
 LEGACY_VERSION = "navbench-1"
 #: The settings each version fixes: a profile's dotted setting (a key ``--set`` takes, for example

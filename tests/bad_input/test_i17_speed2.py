@@ -36,7 +36,9 @@ def test_reference_scale_with_health_is_one_line(project, tmp_path):
 def test_valid_reference_scale_loads(project):
     from navbench.pipeline.profiles import load_profile
 
-    (project / "ok.toml").write_text(variant("navigation.options.ours", "reference_scale", "0.5"))
+    # under navbench-1, whose settings table is empty: only what the file writes
+    (project / "ok.toml").write_text(variant("", "benchmark_version", '"navbench-1"',
+                                             variant("navigation.options.ours", "reference_scale", "0.5")))
     assert load_profile("ok.toml").estimator_options == {"ours": {"reference_scale": 0.5}}
 
 

@@ -43,12 +43,12 @@ def test_runs_and_episodes_store_their_version(db):
     assert db.episodes_frame()["benchmark_version"].tolist() == [benchmark.BENCHMARK_VERSION]
     r2 = db.start_run("quick", "run-navigation", {}, "h", benchmark_version="navbench-9")
     db.add_episodes(r2, [episode("c2", 0)])
-    assert db.episodes_frame()["benchmark_version"].tolist() == ["navbench-1", "navbench-9"]
+    assert db.episodes_frame()["benchmark_version"].tolist() == [benchmark.BENCHMARK_VERSION, "navbench-9"]
 
 
 def _two_versions(db):
     """navbench-1: ours succeeds on tasks 0, 1 (SPL .8, .6); 'navbench-9' (a later version): fails both."""
-    r1 = db.start_run("quick", "run-navigation", {}, "a")
+    r1 = db.start_run("quick", "run-navigation", {}, "a", benchmark_version="navbench-1")
     db.add_episodes(r1, [episode("c1", 0, spl_term=0.8), episode("c1", 1, spl_term=0.6)])
     r9 = db.start_run("quick", "run-navigation", {}, "a", benchmark_version="navbench-9")
     db.add_episodes(r9, [episode("c9", 0, success=False, spl_term=0.0),
@@ -71,7 +71,7 @@ def test_two_versions_are_never_pooled(db):
 def test_one_version_gives_no_note(db):
     r = db.start_run("quick", "run-navigation", {}, "a")
     db.add_episodes(r, [episode("c1", 0)])
-    assert select_versioned(db)[1:] == ("navbench-1", None)
+    assert select_versioned(db)[1:] == (benchmark.BENCHMARK_VERSION, None)  # the current one
 
 
 def test_asking_for_a_version_absent_or_unknown(db):
@@ -144,7 +144,7 @@ def test_tracking_rows_store_their_version_and_the_report_never_pools_them(db, t
 
     from navbench.report.build import build_report
 
-    _tracking(db, None, "s1", [0.1, 0.1])            # navbench-1 (the current version)
+    _tracking(db, "navbench-1", "s1", [0.1, 0.1])
     _tracking(db, "navbench-9", "s9", [0.5, 0.5, 0.5])
     assert db.tracking_frame()["benchmark_version"].tolist() == ["navbench-1"] * 2 + ["navbench-9"] * 3
     index = build_report(db, tmp_path / "rep", n_boot=50)

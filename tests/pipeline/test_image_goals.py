@@ -83,7 +83,8 @@ def test_image_goal_episodes_end_to_end(image_run):
     assert "goal_localization.csv" in html and "tiny: goal images" in html and "unavailable" not in html
     # one set of conditions: named in the caption, and the CSV keeps the column
     goals_html = html.split('id="goals"')[1].split("<h2")[0]
-    assert "one level; every row under the default simulator conditions" in goals_html and "<th>conditions</th>" not in goals_html
+    # (the default version, navbench-5, runs its episodes' camera on texel tables: named)
+    assert "one level; every row under texture=table" in goals_html and "<th>conditions</th>" not in goals_html
     assert "conditions" in by_diff.columns
     # one cell per difficulty, "SR [95 %] / SPL"; image goals only: no point-goal Fig. 5a beside them
     sr, spl = score[score["level"] == "tiny"].iloc[0][["success_rate", "spl"]]

@@ -115,7 +115,7 @@ def test_presets_rescore_the_stored_rows(online_run, monkeypatch):
     # the score table: its own conditions label (never pooled with tracked or fused rows) and preset
     label = set(result.scores["conditions"])
     assert label == {"pose_quantisation=off, direction_limit=believed, collision_check=swept, "
-                     "map=online, mapping=perfect, pose=true"}
+                     "texture=table, map=online, mapping=perfect, pose=true"}
     assert set(result.scores["preset"]) == {"nrns"} and set(result.scores["goal"]) == {"image"}
     assert result.scores.iloc[0]["success_rate"] == pytest.approx(nrns["success"].mean())
 
@@ -394,7 +394,7 @@ def test_gt_stopper_through_the_pipeline(online_run, monkeypatch):
     assert res.navigation.stored == 2
     assert set(res.scores["conditions"]) == {
         "pose_quantisation=off, direction_limit=believed, collision_check=swept, "
-        "map=online, mapping=perfect, pose=true, ablation=gt-stopper"}
+        "texture=table, map=online, mapping=perfect, pose=true, ablation=gt-stopper"}
     rows = _rows(root / "gt-stopper.db")
     for r in rows.itertuples():
         assert (r.end_reason == "reached") == (r.final_dist_m <= 1.0)

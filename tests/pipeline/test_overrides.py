@@ -20,8 +20,10 @@ def test_set_reads_each_key_by_its_fields_type():
                        "conditions.pose_quantisation=round", "scoring.preset=nrns"])
     assert q.fit_steps == 300 and q.tasks == 3 and q.estimators == ("ours", "gt")
     assert q.levels == ("house-1", "house-2") and q.fit == {"lr": 0.05} and q.camera == "paper"
-    assert q.episode == {"max_steps": 300, "pose_quantisation": "round"}
-    assert q.estimator_options == {"ours": {"optimizer": "adam"}} and q.scoring_preset == "nrns"
+    # quick runs under the default version (navbench-5): its settings stay beside what --set writes
+    assert q.episode == {"texture": "table", "max_steps": 300, "pose_quantisation": "round"}
+    assert q.estimator_options == {"ours": {"yaw_search_spread": True, "optimizer": "adam"},
+                                   "no-map": {"yaw_search_spread": True}} and q.scoring_preset == "nrns"
     # the rest is the profile's, and the profile itself is unchanged
     assert (q.views, q.tasks_seed, q.noise, q.name) == (p.views, p.tasks_seed, p.noise, p.name)
     assert p.fit_steps == 2000 and apply_sets(p, []) is p

@@ -32,7 +32,7 @@ def test_online_report_has_top_views(online_run, tmp_path, monkeypatch):  # noqa
     assert len(captions) == 1  # one level, one set of conditions
     cap = captions[0]
     assert cap.startswith("tiny: top views of 2 of 2 online image-goal episodes (the first of each difficulty")
-    assert "conditions: map=online, mapping=perfect, pose=true" in cap
+    assert "conditions: texture=table, map=online, mapping=perfect, pose=true" in cap  # navbench-5's camera
     assert "explored area not" not in cap and "not stored" not in cap  # the seen cells were drawn
     # the top views, each with its goal image beneath: the level's goal-image strip is not
     # drawn a second time for online episodes
@@ -117,7 +117,7 @@ def test_missing_trajectories_are_a_note_naming_level_and_conditions(online_run,
     page = _Page(tmp_path)
     section_online_topviews(page, eps, root / "levels", gone, None)
     notes = [s for s in page.sections if "unavailable" in s]
-    assert notes == ['<p class="note">tiny (map=online, mapping=perfect, pose=true): 2 of its 2 online '
+    assert notes == ['<p class="note">tiny (texture=table, map=online, mapping=perfect, pose=true): 2 of its 2 online '
                      'trajectory artifact(s) unavailable (not in this cache: run elsewhere, or removed)</p>']
     assert page.figures == 0
 

@@ -115,7 +115,7 @@ def _spy_localizer(monkeypatch) -> list:
 
 def test_localize_eval_on_the_engines_frames(project, monkeypatch):
     """The localiser is handed the engine's frames, with the engine's projection, and the study
-    stores the pose the engine showed as each query's truth; the run is navbench-1+vizdoom."""
+    stores the pose the engine showed as each query's truth; the run is navbench-5+vizdoom (the default version on the engine)."""
     _require_vizdoom()
     from typer.testing import CliRunner
 
@@ -141,7 +141,7 @@ def test_localize_eval_on_the_engines_frames(project, monkeypatch):
             np.testing.assert_array_equal(frame.valid, engine.valid)
     con = sqlite3.connect(project / "nb.db")
     (version, config), = con.execute("select benchmark_version, config from runs").fetchall()
-    assert version == "navbench-1+vizdoom" and json.loads(config)["localize"]["sim"] == "vizdoom"
+    assert version == "navbench-5+vizdoom" and json.loads(config)["localize"]["sim"] == "vizdoom"
     # pymunk, same queries: its own study key and version, its poses within half a centimetre
     seen.clear()
     res = CliRunner().invoke(app, args)
@@ -153,7 +153,7 @@ def test_localize_eval_on_the_engines_frames(project, monkeypatch):
     assert np.abs(true_ray[:, :2] - true[:, :2]).max() <= 0.005 + 1e-9
     assert all((i.fx, i.fy) == (HALF_CAMERA.fx, HALF_CAMERA.fy) for _, i in seen)
     versions = [v for v, in con.execute("select benchmark_version from runs order by id")]
-    assert versions == ["navbench-1+vizdoom", "navbench-1"]
+    assert versions == ["navbench-5+vizdoom", "navbench-5"]
     assert con.execute("select count(*) from localize").fetchone() == (6,)
 
 
@@ -185,7 +185,7 @@ lattice_step = 0.5
 def test_image_goals_on_the_engine(project, monkeypatch):
     """goal = "image" with sim = "vizdoom" runs: each goal image is the engine's frame at the goal
     pose, localised with the engine's projection (the pool workers' path gives the same goals);
-    the episodes are navbench-1+vizdoom, the goals' key is not pymunk's."""
+    the episodes are navbench-5+vizdoom, the goals' key is not pymunk's."""
     _require_vizdoom()
     from navbench.nav.imagegoal import goal_pose
     from navbench.pipeline.run import run_profile
@@ -204,7 +204,7 @@ def test_image_goals_on_the_engine(project, monkeypatch):
         for (frame, _), t in zip(seen, tasks):
             np.testing.assert_array_equal(frame.rgb, cam.render(goal_pose(t, 0)).rgb)
     con = sqlite3.connect(project / "img.db")
-    assert {v for v, in con.execute("select benchmark_version from episodes")} == {"navbench-1+vizdoom"}
+    assert {v for v, in con.execute("select benchmark_version from episodes")} == {"navbench-5+vizdoom"}
     assert {g for g, in con.execute("select goal from episodes")} == {"image"}
     # a pool worker's chunk: the same goal records (but the query time)
     bank = next((project / "cache" / "localize-bank").glob("*/bank.npz"))

@@ -40,5 +40,5 @@ def test_engine_episodes_under_ray_match_the_local_pool(tmp_path, monkeypatch):
         assert "0 from stored trajectories, 2 run now" in res.output
         rows[executor] = _rows(db)
     assert len(rows["local"]) == 2
-    assert {r[-1] for r in rows["local"]} == {"navbench-1+vizdoom"}
+    assert {r[-1] for r in rows["local"]} == {"navbench-5+vizdoom"}
     assert rows["ray"] == rows["local"]

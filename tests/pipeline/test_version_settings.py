@@ -58,10 +58,12 @@ def test_a_profile_file_takes_its_versions_settings_and_what_it_writes_wins(test
     assert departures(own) == {"fit.seed": (3, 7), "navigation.options.ours.reference_scale": (1.0, 0.5)}
     assert version_line(own) == ("benchmark navbench-test, departing: fit.seed=3 (the version's: 7); "
                                  "navigation.options.ours.reference_scale=1.0 (the version's: 0.5)")
-    # no key: the current version, with its settings; the bundled profiles are navbench-1's
-    assert profile_from_dict({"name": "t"}).benchmark_version == benchmark.BENCHMARK_VERSION
+    # no key: the current version (navbench-5 since 2026-11-27), with its settings, as the
+    # bundled profiles, which name none
+    assert profile_from_dict({"name": "t"}).benchmark_version == benchmark.BENCHMARK_VERSION == "navbench-5"
     quick = load_profile("quick")
-    assert quick.benchmark_version == "navbench-1" and version_line(quick) == "benchmark navbench-1"
+    assert quick.benchmark_version == "navbench-5" and version_line(quick) == "benchmark navbench-5"
+    assert quick.estimator_options == {e: {"yaw_search_spread": True} for e in ("ours", "no-map")}
 
 
 def test_a_navbench_1_profile_using_a_versions_lever_departs_from_navbench_1(testing_version):
@@ -70,7 +72,7 @@ def test_a_navbench_1_profile_using_a_versions_lever_departs_from_navbench_1(tes
 
 
 def test_set_and_the_option_change_the_version_and_typed_values_win(testing_version):
-    quick = load_profile("quick")
+    quick = with_version(load_profile("quick"), "navbench-1")  # the empty table: only the test's settings
     for items in (["fit.seed=3", "benchmark_version=navbench-test"],
                   ["benchmark_version=navbench-test", "fit.seed=3"]):  # the order does not matter
         p = apply_sets(quick, items)
@@ -150,7 +152,14 @@ QUICK_KEYS = {
 
 
 def test_the_quick_profiles_keys_are_unchanged(tmp_path, monkeypatch):
-    assert stage_keys(load_profile("quick"), tmp_path, monkeypatch) == QUICK_KEYS
+    """Under navbench-1 every key is as before versions; under the default version (navbench-5,
+    whose settings reach only the episodes) the level, views, map and tasks keys are navbench-1's
+    and the cells and conditions carry the version."""
+    assert stage_keys(with_version(load_profile("quick"), "navbench-1"), tmp_path, monkeypatch) == QUICK_KEYS
+    now = stage_keys(load_profile("quick"), tmp_path, monkeypatch)
+    assert {k: now[k] for k in ("stages", "level", "map", "tasks")} == {
+        k: QUICK_KEYS[k] for k in ("stages", "level", "map", "tasks")}
+    assert not set(now["cells"]) & set(QUICK_KEYS["cells"]) and now["conditions"] != QUICK_KEYS["conditions"]
 
 
 def test_a_version_changes_the_keys_it_affects_and_no_other(tmp_path, monkeypatch, testing_version):
@@ -189,7 +198,7 @@ def test_a_version_that_fixes_views_reaches_the_views_key(tmp_path, monkeypatch)
 
 @pytest.mark.slow
 def test_runs_of_two_versions_store_their_own_rows_and_are_never_pooled(project, testing_version):
-    """tiny.toml under navbench-1, then under navbench-test in the same database and cache: the
+    """tiny.toml under the default version, then under navbench-test in the same database and cache: the
     second run reuses the level, views and task set, fits its own map, runs its own episodes
     (none is 'already stored'), and its run and episode rows carry its version; score takes the
     newest version alone and --benchmark-version the other; navbench all prints the version."""
@@ -214,14 +223,14 @@ def test_runs_of_two_versions_store_their_own_rows_and_are_never_pooled(project,
         assert not keys["1"][stage] & keys["test"][stage], stage
     with ResultsDB(url) as db:
         runs = db.runs_frame().set_index("id")
-        assert runs.loc[one.run_id, "benchmark_version"] == "navbench-1"
+        assert runs.loc[one.run_id, "benchmark_version"] == benchmark.BENCHMARK_VERSION
         assert runs.loc[two.run_id, "benchmark_version"] == testing_version
         eps = db.episodes_frame()
         assert eps.groupby("run_id")["benchmark_version"].agg(set).to_dict() == {
-            one.run_id: {"navbench-1"}, two.run_id: {testing_version}}
+            one.run_id: {benchmark.BENCHMARK_VERSION}, two.run_id: {testing_version}}
         t = score_table(db, n_boot=20)
         assert set(t["episodes"][t["level"] == "all"]) == {3}  # 3 tasks per estimator, one version
-        old = score_table(db, n_boot=20, benchmark_version="navbench-1")
+        old = score_table(db, n_boot=20, benchmark_version=benchmark.BENCHMARK_VERSION)
         assert set(old["episodes"][old["level"] == "all"]) == {3}
     res = nb("all", "--profile", "tiny.toml", "--db", url, "--report", "out/r",
              "--benchmark-version", testing_version, "--set", "fit.seed=3")
@@ -237,7 +246,8 @@ def _stores_what_navbench_1_stores_with(project, version: str, sets: list[str]) 
 
     from navbench.pipeline.run import run_profile
 
-    base = apply_sets(load_profile("tiny.toml"), ["navigation.estimators=ours,no-map,dynamics"])
+    base = apply_sets(load_profile("tiny.toml"), ["benchmark_version=navbench-1",
+                                                  "navigation.estimators=ours,no-map,dynamics"])
     v1 = run_profile(apply_sets(base, sets), db=f"sqlite:///{project / 'one.db'}", until="score")
     vn = run_profile(apply_sets(base, [f"benchmark_version={version}"]), db=f"sqlite:///{project / 'new.db'}",
                      until="score")
@@ -260,7 +270,7 @@ def test_navbench_3_is_navbench_1_with_the_spread_heading_search(project):
     """navbench-3 (accepted 2026-11-27) fixes exactly ``yaw_search_spread`` of ours and no-map."""
     assert benchmark.version_settings("navbench-3") == {
         "navigation.options.ours.yaw_search_spread": True, "navigation.options.no-map.yaw_search_spread": True}
-    assert "navbench-3" not in benchmark.CANDIDATES and benchmark.BENCHMARK_VERSION == "navbench-1"
+    assert "navbench-3" not in benchmark.CANDIDATES
     _stores_what_navbench_1_stores_with(project, "navbench-3", _SPREAD)
 
 
@@ -273,6 +283,7 @@ def test_navbench_5_is_navbench_3_with_table_textured_episode_frames(project):
         **benchmark.version_settings("navbench-3"), "navigation.episode.texture": "table"}
     assert benchmark.affected_stages("navbench-5") == frozenset() == benchmark.affected_stages("navbench-4")
     assert "navbench-5" not in benchmark.CANDIDATES and "navbench-4" in benchmark.CANDIDATES
+    assert benchmark.BENCHMARK_VERSION == "navbench-5"  # the default since 2026-11-27
     assert benchmark.GYM_IDS["navbench-5"] == benchmark.GYM_IDS["navbench-2"] == "navbench/PointNav-v1"
     assert set(benchmark.version_settings("navbench-4")) - set(benchmark.version_settings("navbench-5")) == {
         f"navigation.options.{e}.{k}" for e in ("ours", "no-map") for k in ("gn_geo_tol", "gn_tol", "yaw_search_turn_deg")}

@@ -115,6 +115,17 @@ def test_registered_with_gymnasium(tmp_path, monkeypatch):
     direct = PointNavEnv(rooms(), intrinsics=SMALL, noise="low", seed=0)
     obs2, _ = direct.reset()
     np.testing.assert_array_equal(obs["depth"], obs2["depth"])
+    np.testing.assert_array_equal(obs["rgb"], obs2["rgb"])  # -v0: navbench-1's procedural textures
+    # -v1, the current version's (navbench-5): the camera's texel tables; texture= still chooses
+    assert navbench.envs.ENV_ID == "navbench/PointNav-v1"
+    obs_v1, _ = gym.make("navbench/PointNav-v1", level=rooms(), intrinsics=SMALL, noise="low", seed=0).reset()
+    table, _ = PointNavEnv(rooms(), intrinsics=SMALL, noise="low", seed=0, texture="table").reset()
+    np.testing.assert_array_equal(obs_v1["rgb"], table["rgb"])
+    np.testing.assert_array_equal(obs_v1["depth"], obs2["depth"])  # the same depth, other colours
+    assert not np.array_equal(obs_v1["rgb"], obs2["rgb"])
+    chosen, _ = gym.make("navbench/PointNav-v1", level=rooms(), intrinsics=SMALL, noise="low", seed=0,
+                         texture="procedural").reset()
+    np.testing.assert_array_equal(chosen["rgb"], obs2["rgb"])
 
     (tmp_path / "levels").mkdir()
     save_level(rooms(), tmp_path / "levels" / f"{rooms().name}.json")
@@ -122,6 +133,18 @@ def test_registered_with_gymnasium(tmp_path, monkeypatch):
     env = gym.make("navbench/PointNav-v0", level=rooms().name, intrinsics=None, seed=1)
     obs, _ = env.reset()
     assert set(obs) == {"goal"}
+
+
+def test_each_registered_id_has_one_texture():
+    """The accepted versions sharing a Gymnasium id share their camera's texture mode (the id's
+    suffix follows the images)."""
+    from navbench import benchmark
+    from navbench.envs import ENV_TEXTURES
+
+    for v, gid in benchmark.GYM_IDS.items():
+        if v not in benchmark.CANDIDATES:
+            assert benchmark.version_settings(v).get("navigation.episode.texture", "procedural") == ENV_TEXTURES[gid], v
+    assert set(ENV_TEXTURES) == {"navbench/PointNav-v0", "navbench/PointNav-v1"}
 
 
 def test_module_prefixed_id_registers_itself():

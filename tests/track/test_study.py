@@ -81,7 +81,8 @@ def test_track_eval_cli_prints_json(tmp_path, level, monkeypatch):
         assert keys <= set(out[name]), name
     assert out["emission"]["runs"] == 1 and out["ours"]["runs"] == 2
     assert out["gt"]["loc_rmse_m_median"] == 0.0
-    assert out["meta"]["options"]["ours"] == {"optimizer": "adam", "adam_steps": 10}
+    # the default version's setting (navbench-5: the heading search spread) beside the -o options
+    assert out["meta"]["options"]["ours"] == {"yaw_search_spread": True, "optimizer": "adam", "adam_steps": 10}
     # one stored row per (estimator, trajectory, seed): 2 each, emission limited to 1
     assert out["meta"]["stored"]["rows"] == 4 * 2 + 1
     from navbench.results.db import ResultsDB

@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from scripts._env import pythonpath_first  # noqa: E402
-from scripts.golden_rows import COLUMNS, PROFILE  # noqa: E402
+from scripts.golden_rows import COLUMNS, profile_text  # noqa: E402
 
 
 def scratch_project(where: Path) -> Path:
@@ -45,7 +45,7 @@ def scratch_project(where: Path) -> Path:
     where.mkdir(parents=True)
     (where / "levels").mkdir()
     save_level(tiny_level(), where / "levels" / "tiny.json")
-    (where / "golden.toml").write_text(PROFILE)
+    (where / "golden.toml").write_text(profile_text())  # the golden grid, under navbench-1
     return where
 
 
