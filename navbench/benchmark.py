@@ -36,8 +36,9 @@ VERSIONS: dict[str, str] = {
                   "docs/changelog.md): the camera's textures as texel tables, and ours / no-map "
                   "stopping Gauss-Newton when it has converged with the heading search run on "
                   "turns only",
-    "navbench-3": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md): navbench-1 with ours' and no-map's heading search scored on pixels spread "
-                  "over the image (yaw_search_spread) instead of the image's top rows",
+    "navbench-3": "ACCEPTED 2026-11-27 (its acceptance grid passed; docs/changelog.md): navbench-1 "
+                  "with ours' and no-map's heading search scored on pixels spread over the image "
+                  "(yaw_search_spread) instead of the image's top rows",
     "navbench-4": "CANDIDATE, NOT ACCEPTED (its acceptance grid failed, 2026-11-27: the paper's claim "
                   "against no-map at mid noise; docs/changelog.md): navbench-3 with navbench-2's "
                   "speed levers but the views' texture: the episode camera's textures as texel "

@@ -13,7 +13,8 @@ bit). The grid runs under one benchmark version, named in its profile (``--versi
 ``navbench-1``, whose rows were recorded from the code before the pipeline-layer refactor, issue
 12), so a change of the default version leaves each fixture's grid as it was. One fixture per
 guarded version: ``golden_rows.json`` (navbench-1) and ``golden_rows_<version>.json``. Rewrite one
-only for an intentional, documented change of results.
+only for an intentional, documented change of results. The profile names its version, so ``--code`` takes
+a repository of 2026-11-27 or later (older code has no ``benchmark_version`` key).
 """
 
 from __future__ import annotations

@@ -115,7 +115,8 @@ def _spy_localizer(monkeypatch) -> list:
 
 def test_localize_eval_on_the_engines_frames(project, monkeypatch):
     """The localiser is handed the engine's frames, with the engine's projection, and the study
-    stores the pose the engine showed as each query's truth; the run is navbench-5+vizdoom (the default version on the engine)."""
+    stores the pose the engine showed as each query's truth; the run is navbench-5+vizdoom (the
+    default version on the engine)."""
     _require_vizdoom()
     from typer.testing import CliRunner
 
