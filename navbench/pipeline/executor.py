@@ -115,9 +115,19 @@ def _init_worker(parent_pid: int | None = None, parent_token: str | None = None)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if "numba" in sys.modules:  # already imported (fork start method): limit it directly
-        import numba
+        numba_threads(int(os.environ["NUMBA_NUM_THREADS"]))
 
-        numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, int(os.environ["NUMBA_NUM_THREADS"])))
+
+def numba_threads(n: int) -> int:
+    """Run this (calling) thread's compiled kernels on ``n`` numba threads (at least 1, at most
+    numba's pool); returns the count before. The kernels give the same bits on any count (the
+    camera's pixels and the fit's rays are independent; ``tests/worldmodel/test_fit.py`` checks
+    the fit). Pool workers take their count here; the overlap's background process takes 1."""
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(n), numba.config.NUMBA_NUM_THREADS)))
+    return before
 
 
 #: Imported by the forkserver at its start: it dies with the command that started it.

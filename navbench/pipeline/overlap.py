@@ -10,8 +10,8 @@ artifact store, while this process builds the first level and then runs each lev
 on the executor. On a machine of more than two cores it starts once the first level's views are
 collected, so that its own views do not take the cores those need (:func:`starts_at_once`), and
 it runs its compiled kernels on one thread, this process on the cores left while it builds the
-first level (:func:`numba_threads`). Before a level's episodes, this process builds that
-level's inputs exactly as without overlap
+first level (:func:`~navbench.pipeline.executor.numba_threads`). Before a level's episodes,
+this process builds that level's inputs exactly as without overlap
 (:func:`~navbench.pipeline.stages.inputs.build_level_inputs`): the stages find what the
 prefetch process stored, under the same keys, so the artifacts, the keys, the database records
 and the episode rows are the ones a run without overlap makes (only the order in which rows are
@@ -42,6 +42,7 @@ from typing import Any, Callable
 
 from navbench.pipeline.artifacts import FORMAT
 from navbench.pipeline.cache import run_stage
+from navbench.pipeline.executor import FORKSERVER_PRELOAD, die_with_parent, numba_threads, watch_parent
 from navbench.pipeline.stages.context import StageContext
 
 #: Seconds the prefetch process gets to stop after SIGINT before it is killed.
@@ -72,17 +73,6 @@ def starts_at_once(cores: int | None = None) -> bool:
     return n <= AT_ONCE_MAX_CORES
 
 
-def numba_threads(n: int) -> int:
-    """Run this (calling) thread's compiled kernels on ``n`` numba threads (at most numba's
-    pool); returns the count before. The kernels give the same bits on any count (the camera's
-    pixels and the fit's rays are independent; ``tests/worldmodel/test_fit.py`` checks the fit)."""
-    import numba
-
-    before = numba.get_num_threads()
-    numba.set_num_threads(max(1, min(int(n), numba.config.NUMBA_NUM_THREADS)))
-    return before
-
-
 def overlap_applies(profile, executor: str, workers: int) -> str | None:
     """Why a run of ``profile`` does not overlap (a phrase), or ``None`` when it does."""
     from navbench.pipeline.stages.online import is_online
@@ -103,8 +93,6 @@ def _prefetch_main(conn, profile, names: list[str], cache_root: str, levels_dir:
     """The prefetch process: build ``names``' inputs into the store, reporting over ``conn``:
     ``("log", text)``, ``("bar", description, done, total)``, ``("done", level, timings)``
     (timings: ``[(stage, key, seconds, cached)]``) and ``("error", level, text)``."""
-    from navbench.pipeline.executor import die_with_parent, watch_parent
-
     die_with_parent()
     watch_parent(parent_pid, parent_token)
     # one thread: it always runs beside other work (the first level's build, then the episodes
@@ -214,7 +202,6 @@ class Prefetcher:
         """
         import multiprocessing as mp
 
-        from navbench.pipeline.executor import FORKSERVER_PRELOAD
         from navbench.proc import process_start_token
 
         if not self.names or self.proc is not None or self._stopping:

@@ -274,8 +274,8 @@ def _navigate_overlapped(ctx: "StageContext", profile: "Profile", run_id: int, c
     the levels (waits for a level's inputs excluded)."""
     import time
 
-    from navbench.pipeline.executor import make_executor
-    from navbench.pipeline.overlap import Prefetcher, numba_threads, starts_at_once, summed_summary
+    from navbench.pipeline.executor import make_executor, numba_threads
+    from navbench.pipeline.overlap import Prefetcher, starts_at_once, summed_summary
     from navbench.pipeline.stages import build_level_inputs, run_navigation_stage
     from navbench.pipeline.stages.level import LevelConfig, make_level_stage
 

@@ -58,10 +58,10 @@ def test_same_seed_same_map(data):
 
 def test_the_same_map_on_one_and_on_several_numba_threads(data):
     """The overlap's background process fits on one numba thread and the command beside it on
-    the cores left (pipeline.overlap.numba_threads): the map must not depend on the count."""
+    the cores left (pipeline.executor.numba_threads): the map must not depend on the count."""
     import numba
 
-    from navbench.pipeline.overlap import numba_threads
+    from navbench.pipeline.executor import numba_threads
 
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("numba has one thread here (NUMBA_NUM_THREADS)")
